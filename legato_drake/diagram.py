@@ -1,0 +1,163 @@
+"""``build_diagram(scenario)``: the one place that wires a LEGATO episode together.
+
+::
+
+    StereoCamera (10 Hz) -> controller (10 Hz) -> action = [pose delta, grasp]
+                                                    |                 |
+                         GripperTargetIntegrator <--+                 +--> GripperActuation
+                              | target pose + velocity                          |
+                         WholeBodyIK (100 Hz)                                   |
+                              | joint targets                   finger targets  |
+                         MultibodyPlant joint PD (500 Hz) + GravityCompensation <+
+                              |
+                         SuccessMonitor, TrackingMonitor, MeshcatVisualizer
+
+The controller sees the gripper only; the embodiment is known to the IK, the PD and the
+gravity compensation alone.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.geometry import (
+    Meshcat,
+    MeshcatVisualizer,
+    MeshcatVisualizerParams,
+    Role,
+    SceneGraph,
+)
+from pydrake.math import RigidTransform
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import Demultiplexer
+
+from legato_drake import conventions
+from legato_drake.embodiments import RobotHandles, add_embodiment, get_embodiment
+from legato_drake.models import add_package
+from legato_drake.scenario import Scenario
+from legato_drake.systems.gravity_compensation import GravityCompensation
+from legato_drake.systems.gripper_actuation import GripperActuation
+from legato_drake.systems.render_mirror import add_render_scene
+from legato_drake.systems.scripted_demonstrator import ScriptedDemonstrator
+from legato_drake.systems.stereo_camera import RENDERER_NAME, StereoCamera, StereoRig
+from legato_drake.systems.success_monitor import SuccessMonitor
+from legato_drake.systems.target_integrator import GripperTargetIntegrator
+from legato_drake.systems.tracking_monitor import TrackingMonitor
+from legato_drake.systems.whole_body_ik import WholeBodyIK
+from legato_drake.tasks import Task, make_task
+
+
+@dataclass
+class LegatoDiagram:
+    """A built episode diagram and handles to its parts."""
+
+    scenario: Scenario
+    diagram: Diagram
+    plant: MultibodyPlant
+    scene_graph: SceneGraph
+    robot: RobotHandles
+    task: Task
+    controller: ScriptedDemonstrator
+    integrator: GripperTargetIntegrator
+    ik: WholeBodyIK
+    gripper: GripperActuation
+    success: SuccessMonitor
+    tracking: TrackingMonitor
+    camera: StereoCamera | None
+    visualizer: MeshcatVisualizer | None
+    meshcat: Meshcat | None
+    X_home: RigidTransform
+    """TCP pose at the robot's home posture (where homing starts)."""
+
+
+def build_plant(scenario: Scenario, builder: DiagramBuilder
+                ) -> tuple[MultibodyPlant, SceneGraph, RobotHandles, Task]:
+    """Adds the finalized plant (robot, gripper, task scene) to ``builder``."""
+    config = MultibodyPlantConfig(time_step=conventions.PHYSICS_DT,
+                                  discrete_contact_approximation="sap")
+    plant, scene_graph = AddMultibodyPlant(config, builder)
+    parser = add_package(Parser(plant))
+    robot = add_embodiment(plant, parser, get_embodiment(scenario.embodiment))
+    task = make_task(scenario.task)
+    task.add_to_plant(plant, parser)
+    plant.Finalize()
+    return plant, scene_graph, robot, task
+
+
+def stereo_rig(plant: MultibodyPlant, robot: RobotHandles, scenario: Scenario) -> StereoRig:
+    """The gripper's camera rig, read from the gripper model's optical frames."""
+    base = plant.GetBodyByName(conventions.GRIPPER_BASE_BODY, robot.gripper)
+    poses = [plant.GetFrameByName(name, robot.gripper).GetFixedPoseInBodyFrame()
+             for name in ("left_camera_optical", "right_camera_optical")]
+    return StereoRig(plant.GetBodyFrameIdOrThrow(base.index()), poses[0], poses[1],
+                     width=scenario.camera.width, height=scenario.camera.height,
+                     fov_y=float(np.radians(scenario.camera.fov_y_deg)))
+
+
+def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None) -> LegatoDiagram:
+    """Builds the closed-loop diagram of ``scenario``; with ``meshcat``, adds a visualizer."""
+    scenario.validate()
+    builder = DiagramBuilder()
+    plant, scene_graph, robot, task = build_plant(scenario, builder)
+    X_home = robot.tcp_frame.CalcPoseInWorld(plant.CreateDefaultContext())
+    state = plant.get_state_output_port()
+
+    controller = builder.AddNamedSystem(
+        "scripted_demonstrator", ScriptedDemonstrator(plant, task, scenario.seed))
+    builder.Connect(state, controller.get_plant_state_input_port())
+    split = builder.AddNamedSystem("action_split", Demultiplexer([6, 1]))
+    builder.Connect(controller.GetOutputPort("action"), split.get_input_port())
+
+    integrator = builder.AddNamedSystem("target_integrator", GripperTargetIntegrator(X_home))
+    builder.Connect(split.get_output_port(0), integrator.get_delta_input_port())
+    gripper = builder.AddNamedSystem("gripper_actuation", GripperActuation())
+    builder.Connect(split.get_output_port(1), gripper.get_grasp_input_port())
+    builder.Connect(gripper.GetOutputPort("desired_state"),
+                    plant.get_desired_state_input_port(robot.gripper))
+
+    ik = builder.AddNamedSystem("whole_body_ik", WholeBodyIK(plant, robot))
+    builder.Connect(integrator.GetOutputPort("X_WG_target"),
+                    ik.get_desired_pose_input_port())
+    builder.Connect(integrator.GetOutputPort("V_WG_target"),
+                    ik.get_desired_velocity_input_port())
+    builder.Connect(ik.GetOutputPort("desired_state"),
+                    plant.get_desired_state_input_port(robot.robot))
+
+    gravity = builder.AddNamedSystem("gravity_compensation",
+                                     GravityCompensation(plant, robot.controlled_joints))
+    builder.Connect(ik.GetOutputPort("desired_state"), gravity.get_desired_state_input_port())
+    builder.Connect(gravity.GetOutputPort("actuation"),
+                    plant.get_actuation_input_port(robot.robot))
+
+    success = builder.AddNamedSystem("success_monitor", SuccessMonitor(plant, task))
+    builder.Connect(state, success.get_plant_state_input_port())
+    tracking = builder.AddNamedSystem("tracking_monitor", TrackingMonitor(plant, robot.tcp_frame))
+    builder.Connect(integrator.GetOutputPort("X_WG_target"),
+                    tracking.GetInputPort("X_WG_target"))
+    builder.Connect(state, tracking.GetInputPort("plant_state"))
+
+    camera = None
+    if scenario.camera.enabled:
+        render_scene_graph, mirror = add_render_scene(builder, plant, scene_graph,
+                                                      RENDERER_NAME)
+        rig = stereo_rig(plant, robot, scenario)
+        rig = dataclasses.replace(rig, parent_frame=mirror.mirror_frame(rig.parent_frame))
+        camera = builder.AddNamedSystem("stereo_camera", StereoCamera(rig))
+        builder.Connect(render_scene_graph.get_query_output_port(),
+                        camera.get_geometry_query_input_port())
+
+    visualizer = None
+    if meshcat is not None:
+        params = MeshcatVisualizerParams(role=Role.kIllustration,
+                                         publish_period=1.0 / scenario.recording.fps)
+        visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
+
+    diagram = builder.Build()
+    diagram.set_name(f"legato_{scenario.embodiment}_{scenario.task}")
+    return LegatoDiagram(scenario, diagram, plant, scene_graph, robot, task, controller,
+                         integrator, ik, gripper, success, tracking, camera, visualizer, meshcat,
+                         X_home)

@@ -1,0 +1,27 @@
+"""Registry of embodiments: each robot is data (an ``Embodiment``), added by one function."""
+
+from __future__ import annotations
+
+from legato_drake.embodiments.abstract import ABSTRACT
+from legato_drake.embodiments.base import (
+    Embodiment,
+    IkSettings,
+    RobotHandles,
+    add_embodiment,
+)
+from legato_drake.embodiments.panda import PANDA
+from legato_drake.errors import unknown_name
+
+EMBODIMENTS: dict[str, Embodiment] = {e.name: e for e in (ABSTRACT, PANDA)}
+
+
+def get_embodiment(name: str) -> Embodiment:
+    """Returns the registered embodiment called ``name`` (ConfigError lists valid names)."""
+    try:
+        return EMBODIMENTS[name]
+    except KeyError:
+        raise unknown_name("embodiment", name, EMBODIMENTS) from None
+
+
+__all__ = ["EMBODIMENTS", "Embodiment", "IkSettings", "RobotHandles", "add_embodiment",
+           "get_embodiment"]

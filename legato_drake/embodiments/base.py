@@ -1,0 +1,164 @@
+"""What an embodiment is (data, not code paths) and how one is added to a plant.
+
+An embodiment says which model to load, where it stands, which of its frames holds the LEGATO
+gripper (the mount transform: the robot holds the gripper rigidly, as the reference does), its
+home posture, its joint PD gains and its IK settings. Everything the policy sees is the gripper;
+only this module, the IK and the PD know the robot.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.math import RigidTransform
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import (
+    Frame,
+    Joint,
+    JointActuator,
+    JointActuatorIndex,
+    ModelInstanceIndex,
+    PdControllerGains,
+)
+
+from legato_drake import conventions
+from legato_drake.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class IkSettings:
+    """Gains and limits of the whole-body differential IK (SPEC §5)."""
+
+    tracking_gain: float = 24.0
+    """Gain (1/s) on the gripper pose error (position and rotation vector)."""
+    posture_gain: float = 2.0
+    """Gain (1/s) pulling the posture joints toward home, inside the task's null space."""
+    posture_joints: tuple[str, ...] = ()
+    """Joints the posture term acts on; empty means all controlled joints."""
+    posture_weight: float = 0.01
+    """Weight of the null-space posture term relative to the tracking term."""
+    max_joint_speed: float = 2.5
+    """Joint speed bound (rad/s or m/s), applied to every controlled joint."""
+    max_joint_acceleration: float = 100.0
+    """Joint acceleration bound (rad/s^2 or m/s^2) between two IK steps."""
+    joint_speed_limits: dict[str, float] = field(default_factory=dict)
+    """Per-joint speed bounds that override ``max_joint_speed``."""
+
+
+@dataclass(frozen=True)
+class Embodiment:
+    """A robot that holds the LEGATO gripper."""
+
+    name: str
+    """Registry name, e.g. ``panda``."""
+    model: str
+    """Model URL (``package://legato_drake/...``) or file path (URDF/SDF)."""
+    base_frame: str
+    """Frame of the model that is welded to the world at ``base_pose``."""
+    base_pose: RigidTransform
+    """Pose of ``base_frame`` in the world."""
+    mount_frame: str
+    """Frame of the model to which the gripper base is welded."""
+    X_mount_gripper: RigidTransform
+    """Pose of the gripper's base frame in ``mount_frame``."""
+    home: dict[str, float]
+    """Joint positions of the home posture (joints not named stay at zero)."""
+    pd_gains: dict[str, tuple[float, float]]
+    """(kp, kd) of each actuated joint's PD, run by the plant at the physics rate."""
+    ik: IkSettings = field(default_factory=IkSettings)
+    description: str = ""
+
+
+@dataclass
+class RobotHandles:
+    """What ``add_embodiment`` put in the plant: the handles every system needs."""
+
+    embodiment: Embodiment
+    robot: ModelInstanceIndex
+    gripper: ModelInstanceIndex
+    tcp_frame: Frame
+    controlled_joints: list[Joint]
+    """The robot's actuated joints, in the order of its desired-state input port."""
+
+    @property
+    def home_positions(self) -> np.ndarray:
+        """Home posture of ``controlled_joints`` in port order."""
+        return np.array([self.embodiment.home.get(j.name(), 0.0)
+                         for j in self.controlled_joints])
+
+
+def load_gripper(plant: MultibodyPlant, parser: Parser) -> ModelInstanceIndex:
+    """Adds the LEGATO gripper with its finger PD gains; returns its model instance."""
+    (gripper,) = parser.AddModels(url=conventions.GRIPPER_MODEL)
+    for name in conventions.GRIPPER_FINGER_JOINTS:
+        joint = plant.GetJointByName(name, gripper)
+        actuator = _actuator_of(plant, joint)
+        actuator.set_controller_gains(PdControllerGains(p=2000.0, d=10.0))
+    return gripper
+
+
+def add_embodiment(plant: MultibodyPlant, parser: Parser, emb: Embodiment) -> RobotHandles:
+    """Adds the robot and the gripper it holds to an unfinalized plant, with PD gains."""
+    models = parser.AddModels(url=emb.model) if "://" in emb.model else \
+        parser.AddModels(file_name=emb.model)
+    if len(models) != 1:
+        raise ConfigError(f"embodiment {emb.name!r}: {emb.model} holds {len(models)} models, "
+                          "expected exactly one")
+    (robot,) = models
+    base = _frame(plant, emb.base_frame, robot, emb, "base_frame")
+    plant.WeldFrames(plant.world_frame(), base, emb.base_pose)
+    gripper = load_gripper(plant, parser)
+    mount = _frame(plant, emb.mount_frame, robot, emb, "mount_frame")
+    plant.WeldFrames(mount, plant.GetFrameByName(conventions.GRIPPER_BASE_BODY, gripper),
+                     emb.X_mount_gripper)
+
+    joints = [actuator.joint() for actuator in actuators_of(plant, robot)]
+    if not joints:
+        raise ConfigError(f"embodiment {emb.name!r}: {emb.model} has no actuated joints "
+                          "(add <transmission> elements or SDF actuators)")
+    names = {j.name() for j in joints}
+    for kind, table in (("home", emb.home), ("pd_gains", emb.pd_gains)):
+        unknown = set(table) - names
+        if unknown:
+            raise ConfigError(f"embodiment {emb.name!r}: {kind} names unknown joint(s) "
+                              f"{sorted(unknown)}; actuated joints: {sorted(names)}")
+    missing = names - set(emb.pd_gains)
+    if missing:
+        raise ConfigError(f"embodiment {emb.name!r}: pd_gains lacks joint(s) {sorted(missing)}")
+    for joint in joints:
+        kp, kd = emb.pd_gains[joint.name()]
+        _actuator_of(plant, joint).set_controller_gains(PdControllerGains(p=kp, d=kd))
+        if joint.name() in emb.home:
+            joint.set_default_positions([emb.home[joint.name()]])
+    posture = set(emb.ik.posture_joints) - names
+    if posture:
+        raise ConfigError(f"embodiment {emb.name!r}: ik.posture_joints names unknown joint(s) "
+                          f"{sorted(posture)}; actuated joints: {sorted(names)}")
+    tcp = plant.GetFrameByName(conventions.GRIPPER_TCP_FRAME, gripper)
+    return RobotHandles(emb, robot, gripper, tcp, joints)
+
+
+def actuators_of(plant: MultibodyPlant, instance: ModelInstanceIndex) -> list[JointActuator]:
+    """The joint actuators of a model instance in index order (also before Finalize, when
+    ``plant.GetJointActuatorIndices`` is still empty)."""
+    all_actuators = (plant.get_joint_actuator(JointActuatorIndex(i))
+                     for i in range(plant.num_actuators()))
+    return [a for a in all_actuators if a.model_instance() == instance]
+
+
+def _actuator_of(plant: MultibodyPlant, joint: Joint) -> JointActuator:
+    for actuator in actuators_of(plant, joint.model_instance()):
+        if actuator.joint().index() == joint.index():
+            return actuator
+    raise ConfigError(f"joint {joint.name()!r} has no actuator")
+
+
+def _frame(plant: MultibodyPlant, name: str, robot: ModelInstanceIndex, emb: Embodiment,
+           field_name: str) -> Frame:
+    if not plant.HasFrameNamed(name, robot):
+        frames = sorted(plant.get_frame(i).name() for i in plant.GetFrameIndices(robot))
+        raise ConfigError(f"embodiment {emb.name!r}: {field_name} {name!r} is not a frame of "
+                          f"{emb.model}; frames: {', '.join(frames)}")
+    return plant.GetFrameByName(name, robot)

@@ -1,0 +1,116 @@
+"""Running one episode: build, randomize, simulate until success or time-out, report."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pydrake.geometry import Meshcat, MeshcatParams
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import EventStatus
+
+from legato_drake import conventions
+from legato_drake.diagram import LegatoDiagram, build_diagram
+from legato_drake.files import atomic_write_text
+from legato_drake.scenario import Scenario
+from legato_drake.systems.tracking_monitor import TrackingStats
+
+DONE_GRACE = 2.0
+"""Seconds the episode goes on after the controller is done, for the scene to settle."""
+
+
+@dataclass
+class EpisodeResult:
+    """What one episode did: the verdict, why, and how fast and how accurately."""
+
+    embodiment: str
+    task: str
+    controller: str
+    seed: int
+    success: bool
+    reason: str
+    """Empty on success; else the first failed condition of the success predicate."""
+    success_time: float | None
+    """Seconds after the controller took over when success first held (None if never)."""
+    episode_time: float
+    """Simulated seconds after homing."""
+    sim_time: float
+    """Simulated seconds in all, homing included."""
+    wall_time: float
+    real_time_factor: float
+    tracking: TrackingStats
+    metrics: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """A JSON-friendly dict."""
+        return dataclasses.asdict(self)
+
+
+def make_meshcat() -> Meshcat:
+    """A headless Meshcat on a free port (safe in parallel tests)."""
+    return Meshcat(MeshcatParams(port=0))
+
+
+def initialize(built: LegatoDiagram, simulator: Simulator) -> None:
+    """Applies the scenario's seeded randomization to the simulator's context."""
+    context = simulator.get_mutable_context()
+    plant_context = built.plant.GetMyMutableContextFromRoot(context)
+    built.task.set_initial_state(built.plant, plant_context,
+                                 np.random.default_rng(built.scenario.seed))
+
+
+def run_episode(scenario: Scenario, html: str | Path | None = None,
+                built: LegatoDiagram | None = None) -> EpisodeResult:
+    """Simulates one episode of ``scenario``; with ``html``, writes a Meshcat replay there."""
+    scenario = scenario.validate()
+    if built is None:
+        meshcat = make_meshcat() if html is not None or scenario.recording.meshcat else None
+        built = build_diagram(scenario, meshcat)
+    simulator = Simulator(built.diagram)
+    initialize(built, simulator)
+    context = simulator.get_mutable_context()
+    t_end = conventions.HOMING_DURATION + scenario.duration
+    success_port = built.success.GetOutputPort("success")
+    done_port = built.controller.GetOutputPort("done")
+    done_since: list[float] = []
+
+    def monitor(root_context) -> EventStatus:
+        if scenario.stop_on_success and success_port.Eval(
+                built.success.GetMyContextFromRoot(root_context))[0] > 0.5:
+            return EventStatus.ReachedTermination(built.diagram, "success")
+        if done_port.Eval(built.controller.GetMyContextFromRoot(root_context))[0] > 0.5:
+            if not done_since:
+                done_since.append(root_context.get_time())
+            elif root_context.get_time() - done_since[0] >= DONE_GRACE:
+                return EventStatus.ReachedTermination(built.diagram, "controller done")
+        return EventStatus.Succeeded()
+
+    simulator.set_monitor(monitor)
+    if built.visualizer is not None:
+        built.visualizer.StartRecording(False)
+    start = time.perf_counter()
+    simulator.Initialize()
+    simulator.AdvanceTo(t_end)
+    wall = time.perf_counter() - start
+
+    report = built.success.evaluate(built.success.GetMyContextFromRoot(context))
+    first = built.success.GetOutputPort("first_success_time").Eval(
+        built.success.GetMyContextFromRoot(context))[0]
+    stats = TrackingStats.from_vector(built.tracking.GetOutputPort("stats").Eval(
+        built.tracking.GetMyContextFromRoot(context)))
+    sim_time = context.get_time()
+    if built.visualizer is not None:
+        built.visualizer.StopRecording()
+        built.visualizer.PublishRecording()
+        if html is not None:
+            atomic_write_text(Path(html), built.meshcat.StaticHtml())
+    return EpisodeResult(
+        embodiment=scenario.embodiment, task=scenario.task, controller=scenario.controller,
+        seed=scenario.seed, success=report.success, reason=report.reason,
+        success_time=None if np.isnan(first) else float(first - conventions.HOMING_DURATION),
+        episode_time=max(sim_time - conventions.HOMING_DURATION, 0.0), sim_time=sim_time,
+        wall_time=wall, real_time_factor=sim_time / wall if wall > 0 else float("inf"),
+        tracking=stats, metrics=report.metrics)

@@ -1,0 +1,1 @@
+"""The project's LeafSystems, one per module."""

@@ -1,0 +1,102 @@
+"""Integrates 10 Hz gripper pose deltas into a smooth gripper target pose for the IK."""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform
+from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
+
+from legato_drake import conventions
+from legato_drake.poses import (
+    apply_delta,
+    interpolate,
+    pose_to_vector,
+    rotation_log,
+    vector_to_pose,
+)
+
+
+class GripperTargetIntegrator(LeafSystem):
+    """Turns the policy's pose deltas into the gripper TCP target the IK tracks.
+
+    Before ``t_start`` (homing) the target is a cosine blend over ``t_start`` seconds from
+    ``X_home`` (the TCP at the robot's home posture) to ``X_start``, and deltas are ignored.
+    From ``t_start`` on, every ``period`` the commanded pose is composed with the latest delta
+    (``X_next = X_prev * delta``, the delta expressed in the previous commanded frame, SPEC §7)
+    and the target moves from the previous to the new commanded pose at constant velocity
+    over the period, so the IK sees a continuous target and a feed-forward velocity.
+
+    Input ports:
+        delta (6): [dx, dy, dz, droll, dpitch, dyaw]. A non-finite delta is ignored (the
+        commanded pose holds).
+
+    Output ports:
+        X_WG_target (RigidTransform): target TCP pose in the world.
+        V_WG_target (6): its spatial velocity [w; v] in the world.
+        X_WG_commanded (7): the latest commanded pose [xyz, quaternion wxyz].
+
+    State: discrete [X_prev (7), X_next (7), t_k (1)].
+    """
+
+    def __init__(self, X_home: RigidTransform, X_start: RigidTransform = conventions.START_POSE,
+                 t_start: float = conventions.HOMING_DURATION,
+                 period: float = conventions.POLICY_PERIOD,
+                 offset: float = conventions.TARGET_OFFSET):
+        super().__init__()
+        self._X_home, self._X_start = X_home, X_start
+        self._t_start, self._period = t_start, period
+        self._delta = self.DeclareVectorInputPort("delta", 6)
+        start = pose_to_vector(X_start)
+        self._state = self.DeclareDiscreteState(np.concatenate([start, start, [t_start]]))
+        self.DeclarePeriodicDiscreteUpdateEvent(period, t_start + offset, self._step)
+        self.DeclareAbstractOutputPort(
+            "X_WG_target", lambda: AbstractValue.Make(RigidTransform()), self._calc_pose)
+        self.DeclareVectorOutputPort("V_WG_target", 6, self._calc_velocity)
+        self.DeclareVectorOutputPort("X_WG_commanded", 7, self._calc_commanded,
+                                     {self.xd_ticket()})
+
+    def get_delta_input_port(self):
+        return self._delta
+
+    def _step(self, context: Context, discrete_state: DiscreteValues) -> None:
+        x = context.get_discrete_state(self._state).get_value()
+        delta = self._delta.Eval(context)
+        X_next = vector_to_pose(x[7:14])
+        X_new = apply_delta(X_next, delta) if np.all(np.isfinite(delta)) else X_next
+        discrete_state.set_value(self._state, np.concatenate(
+            [pose_to_vector(X_next), pose_to_vector(X_new), [context.get_time()]]))
+
+    def _blend(self, t: float) -> tuple[float, float]:
+        """Cosine-blend fraction s(t) and its rate ds/dt during homing."""
+        T = self._t_start
+        if T <= 0.0 or t >= T:
+            return 1.0, 0.0
+        return 0.5 * (1.0 - np.cos(np.pi * t / T)), 0.5 * np.pi / T * np.sin(np.pi * t / T)
+
+    def _segment(self, context: Context) -> tuple[RigidTransform, RigidTransform, float, float]:
+        """(X0, X1, s, ds/dt) of the segment the target is on at the context's time."""
+        t = context.get_time()
+        if t < self._t_start:
+            s, ds = self._blend(t)
+            return self._X_home, self._X_start, s, ds
+        x = context.get_discrete_state(self._state).get_value()
+        alpha = (t - x[14]) / self._period
+        if alpha >= 1.0:
+            X = vector_to_pose(x[7:14])
+            return X, X, 1.0, 0.0
+        return vector_to_pose(x[0:7]), vector_to_pose(x[7:14]), max(alpha, 0.0), \
+            1.0 / self._period
+
+    def _calc_pose(self, context: Context, output: AbstractValue) -> None:
+        X0, X1, s, _ = self._segment(context)
+        output.set_value(interpolate(X0, X1, s))
+
+    def _calc_velocity(self, context: Context, output: BasicVector) -> None:
+        X0, X1, _, ds = self._segment(context)
+        w = X0.rotation() @ rotation_log(X0.rotation().inverse() @ X1.rotation())
+        v = X1.translation() - X0.translation()
+        output.SetFromVector(ds * np.concatenate([w, v]))
+
+    def _calc_commanded(self, context: Context, output: BasicVector) -> None:
+        output.SetFromVector(context.get_discrete_state(self._state).get_value()[7:14])

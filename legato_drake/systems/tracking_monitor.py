@@ -1,0 +1,73 @@
+"""Accumulates how well the gripper follows its target: RMS and max position/rotation error."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import Frame
+from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
+
+from legato_drake import conventions
+from legato_drake.poses import pose_error
+
+
+@dataclass
+class TrackingStats:
+    """Gripper tracking error over an episode (from ``t_start`` on)."""
+
+    samples: int
+    rms_mm: float
+    max_mm: float
+    rms_deg: float
+    max_deg: float
+
+    @classmethod
+    def from_vector(cls, x: np.ndarray) -> TrackingStats:
+        n = max(int(x[0]), 1)
+        return cls(int(x[0]), 1e3 * np.sqrt(x[1] / n), 1e3 * x[3],
+                   np.degrees(np.sqrt(x[2] / n)), np.degrees(x[4]))
+
+
+class TrackingMonitor(LeafSystem):
+    """Compares the TCP pose with the IK's target every ``period`` from ``t_start`` on.
+
+    Input ports:
+        X_WG_target (RigidTransform): the target the IK tracks.
+        plant_state: the plant's full state.
+
+    Output ports:
+        stats (5): [samples, sum of squared position errors (m^2), sum of squared rotation
+        errors (rad^2), max position error (m), max rotation error (rad)].
+
+    State: discrete, the same 5 numbers.
+    """
+
+    def __init__(self, plant: MultibodyPlant, tcp_frame: Frame,
+                 t_start: float = conventions.HOMING_DURATION,
+                 period: float = conventions.IK_PERIOD):
+        super().__init__()
+        self._plant, self._frame = plant, tcp_frame
+        self._plant_context = plant.CreateDefaultContext()
+        self._target = self.DeclareAbstractInputPort(
+            "X_WG_target", AbstractValue.Make(RigidTransform()))
+        self._plant_state = self.DeclareVectorInputPort(
+            "plant_state", plant.num_positions() + plant.num_velocities())
+        self._state = self.DeclareDiscreteState(5)
+        self.DeclarePeriodicDiscreteUpdateEvent(period, t_start, self._accumulate)
+        self.DeclareVectorOutputPort("stats", 5, self._calc, {self.xd_ticket()})
+
+    def _accumulate(self, context: Context, discrete_state: DiscreteValues) -> None:
+        self._plant.SetPositions(self._plant_context,
+                                 self._plant_state.Eval(context)[:self._plant.num_positions()])
+        X = self._frame.CalcPoseInWorld(self._plant_context)
+        dp, dr = pose_error(X, self._target.Eval(context))
+        n, sp, sr, mp, mr = context.get_discrete_state(self._state).get_value()
+        discrete_state.set_value(self._state, [n + 1, sp + dp * dp, sr + dr * dr,
+                                               max(mp, dp), max(mr, dr)])
+
+    def _calc(self, context: Context, output: BasicVector) -> None:
+        output.SetFromVector(context.get_discrete_state(self._state).get_value())

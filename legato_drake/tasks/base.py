@@ -1,0 +1,77 @@
+"""What a task is: scene models, initial randomization, a success predicate, a scripted plan.
+
+A task object is bound to one plant: ``add_to_plant`` records its model instances, and the
+other methods read or write that plant's context. Tasks know nothing about robots: the
+scripted plan is a list of gripper TCP waypoints in the world.
+"""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.framework import Context
+
+
+@dataclass
+class SuccessReport:
+    """The verdict of a task's success predicate on one plant state."""
+
+    success: bool
+    reason: str
+    """Empty on success; otherwise the first condition that failed, in words and numbers."""
+    metrics: dict[str, float] = field(default_factory=dict)
+    """The measured quantities the predicate compared against its thresholds."""
+
+
+@dataclass
+class Waypoint:
+    """One target of a scripted demonstration: move the TCP there, then hold."""
+
+    pose: RigidTransform
+    """Target pose of the gripper TCP in the world."""
+    grasp: bool
+    """Grasp command while moving to this waypoint and holding at it."""
+    speed: float = 0.15
+    """Cruise speed (m/s) of the move to this waypoint."""
+    hold: float = 0.0
+    """Seconds to stay at the waypoint after reaching it."""
+
+
+class Task(abc.ABC):
+    """Base class of the tasks: subclasses fill in the scene, the predicate and the plan."""
+
+    name: str = ""
+    description: str = ""
+
+    @abc.abstractmethod
+    def add_to_plant(self, plant: MultibodyPlant, parser: Parser) -> None:
+        """Adds the scene's models to an unfinalized plant and remembers their handles."""
+
+    @abc.abstractmethod
+    def set_initial_state(self, plant: MultibodyPlant, context: Context,
+                          rng: np.random.Generator) -> None:
+        """Places the objects at a random initial configuration (SPEC §6) in ``context``."""
+
+    @abc.abstractmethod
+    def evaluate(self, plant: MultibodyPlant, context: Context) -> SuccessReport:
+        """The success predicate on the plant state in ``context``."""
+
+    @abc.abstractmethod
+    def plan_demonstration(self, plant: MultibodyPlant, context: Context,
+                           rng: np.random.Generator) -> list[Waypoint]:
+        """Scripted-expert waypoints from the privileged state in ``context``."""
+
+
+def tilt_angle(R: RotationMatrix) -> float:
+    """Angle (rad) between a body's +z axis and the world's +z axis."""
+    return float(np.arccos(np.clip(R.matrix()[2, 2], -1.0, 1.0)))
+
+
+def uniform(rng: np.random.Generator, low: float, high: float) -> float:
+    """One uniform draw as a Python float."""
+    return float(rng.uniform(low, high))

@@ -1,0 +1,814 @@
+"""Writes the primitive-geometry model files of this folder.
+
+Run: ``python models/generate_models.py``.
+
+The files it writes (``legato_gripper.sdf``, ``abstract.urdf``, ``panda.urdf``, ``table.sdf``,
+``stove.sdf``, ``pot.sdf``, ``lid.sdf``) are committed; this script only documents how their
+numbers were made and regenerates them. Masses are spread over a body's shapes in proportion to
+their volume (unless a shape names its own mass), and every inertia is the exact composite of
+the solid primitives (computed with Drake's ``SpatialInertia`` helpers), so it is positive
+definite and physically valid by construction.
+
+Shapes are tuples ``(kind, dims, xyz, rpy, role, colour, mass)``:
+kind is box (dims = sizes), cyl / cap (dims = radius, length along the shape's z), sph (radius);
+role is "both", "visual", "collision" or "none" (mass only); mass None means "by volume".
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pydrake.math import RollPitchYaw, RotationMatrix
+from pydrake.multibody.tree import SpatialInertia
+
+HERE = Path(__file__).resolve().parent
+PI = math.pi
+
+
+@dataclass
+class Shape:
+    kind: str
+    dims: tuple
+    xyz: tuple = (0.0, 0.0, 0.0)
+    rpy: tuple = (0.0, 0.0, 0.0)
+    role: str = "both"
+    colour: str | None = None
+    mass: float | None = None
+    inertial: bool = True  # False: the shape has no mass (pads, thin decorations)
+    # Geometry name (default: <body>_visual_<i> / <body>_collision_<i>).
+    name: str | None = None
+
+    def volume(self) -> float:
+        if self.kind == "box":
+            return float(np.prod(self.dims))
+        if self.kind == "cyl":
+            r, length = self.dims
+            return PI * r * r * length
+        if self.kind == "cap":
+            r, length = self.dims
+            return PI * r * r * length + 4.0 / 3.0 * PI * r**3
+        if self.kind == "sph":
+            return 4.0 / 3.0 * PI * self.dims[0] ** 3
+        raise ValueError(self.kind)
+
+    def spatial_inertia(self, mass: float) -> SpatialInertia:
+        z = np.array([0.0, 0.0, 1.0])
+        if self.kind == "box":
+            m = SpatialInertia.SolidBoxWithMass(mass, *self.dims)
+        elif self.kind == "cyl":
+            m = SpatialInertia.SolidCylinderWithMass(mass, self.dims[0], self.dims[1], z)
+        elif self.kind == "cap":
+            m = SpatialInertia.SolidCapsuleWithMass(mass, self.dims[0], self.dims[1], z)
+        else:
+            m = SpatialInertia.SolidSphereWithMass(mass, self.dims[0])
+        R_BS = RotationMatrix(RollPitchYaw(*self.rpy))
+        # About the shape centre S, expressed in B, then shifted to the body origin Bo.
+        return m.ReExpress(R_BS).Shift(-np.asarray(self.xyz, dtype=float))
+
+
+@dataclass
+class Body:
+    name: str
+    mass: float
+    shapes: list[Shape] = field(default_factory=list)
+    mu: float | None = None
+    extra_collision_mu: dict = field(default_factory=dict)  # index of shape -> mu
+
+    def inertia(self):
+        """Returns (com, 3x3 rotational inertia about the com in body axes)."""
+        carriers = [s for s in self.shapes if s.inertial]
+        fixed = sum(s.mass for s in carriers if s.mass is not None)
+        free_vol = sum(s.volume() for s in carriers if s.mass is None)
+        total = None
+        for s in carriers:
+            m = s.mass if s.mass is not None else (self.mass - fixed) * s.volume() / free_vol
+            si = s.spatial_inertia(m)
+            if total is None:
+                total = si
+            else:
+                total += si
+        assert abs(total.get_mass() - self.mass) < 1e-9, self.name
+        com = total.get_com()
+        about_com = total.Shift(com)
+        inertia = about_com.CalcRotationalInertia().CopyToFullMatrix3()
+        assert np.all(np.linalg.eigvalsh(inertia) > 0), self.name
+        return com, inertia
+
+
+def capsule_between(p0, p1, r, **kw) -> Shape:
+    """A capsule (or cylinder with kind='cyl') whose segment runs from p0 to p1."""
+    p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
+    d = p1 - p0
+    length = float(np.linalg.norm(d))
+    u = d / length
+    # Rz(yaw) Ry(pitch) takes the shape's z axis to u.
+    pitch = math.acos(max(-1.0, min(1.0, float(u[2]))))
+    yaw = math.atan2(float(u[1]), float(u[0])) if math.hypot(u[0], u[1]) > 1e-12 else 0.0
+    rpy = (0.0, pitch, yaw)
+    kind = kw.pop("kind", "cap")
+    return Shape(kind, (r, length), tuple(float(c) for c in (p0 + p1) / 2), rpy, **kw)
+
+
+def f(x: float) -> str:
+    """Formats a number compactly, round-tripping to within 1e-15 (relative)."""
+    if abs(x) < 1e-13:
+        return "0"
+    s = f"{x:.12g}"
+    if abs(float(s) - x) > 1e-15 * max(1.0, abs(x)):
+        s = repr(float(x))  # keep angles such as pi/2 exact to the last bit
+    return s
+
+
+def fv(v) -> str:
+    return " ".join(f(float(x)) for x in v)
+
+
+# --------------------------------------------------------------------------------- colours
+
+COLOURS = {
+    # rgba; luma (0.299 R + 0.587 G + 0.114 B) noted so the grayscale camera can tell them apart
+    "wood": (0.80, 0.66, 0.45, 1.0),  # 0.68
+    "wood_dark": (0.45, 0.33, 0.20, 1.0),  # 0.35
+    "stove": (0.29, 0.29, 0.31, 1.0),  # 0.29
+    "burner": (0.50, 0.06, 0.04, 1.0),  # 0.19
+    "pot": (0.52, 0.53, 0.55, 1.0),  # 0.53
+    "pot_handle": (0.22, 0.22, 0.22, 1.0),  # 0.22
+    "lid": (0.93, 0.93, 0.88, 1.0),  # 0.93
+    "lid_handle": (0.08, 0.08, 0.08, 1.0),  # 0.08
+    "gripper": (0.12, 0.12, 0.13, 1.0),  # 0.12
+    "finger": (0.24, 0.24, 0.26, 1.0),  # 0.24
+    "pad": (0.88, 0.86, 0.78, 1.0),  # 0.86
+    "camera": (0.04, 0.04, 0.05, 1.0),  # 0.04
+    "panda_white": (0.95, 0.95, 0.95, 1.0),
+    "panda_grey": (0.72, 0.73, 0.75, 1.0),
+    "panda_dark": (0.20, 0.20, 0.22, 1.0),
+    "marker": (0.90, 0.45, 0.10, 1.0),
+}
+
+
+# --------------------------------------------------------------------------------- SDF output
+
+
+def sdf_geometry(s: Shape, ind: str) -> str:
+    if s.kind == "box":
+        g = f"<box><size>{fv(s.dims)}</size></box>"
+    elif s.kind == "cyl":
+        g = f"<cylinder><radius>{f(s.dims[0])}</radius><length>{f(s.dims[1])}</length></cylinder>"
+    elif s.kind == "cap":
+        g = f"<capsule><radius>{f(s.dims[0])}</radius><length>{f(s.dims[1])}</length></capsule>"
+    else:
+        g = f"<sphere><radius>{f(s.dims[0])}</radius></sphere>"
+    return f"{ind}<geometry>{g}</geometry>\n"
+
+
+def sdf_body(b: Body, pose: str | None = None) -> str:
+    com, inertia = b.inertia()
+    out = [f'    <link name="{b.name}">\n']
+    if pose:
+        out.append(f"      <pose{pose}</pose>\n")
+    out.append(
+        "      <inertial>\n"
+        f"        <pose>{fv(com)} 0 0 0</pose>\n"
+        f"        <mass>{f(b.mass)}</mass>\n"
+        "        <inertia>\n"
+        f"          <ixx>{f(inertia[0, 0])}</ixx><ixy>{f(inertia[0, 1])}</ixy>"
+        f"<ixz>{f(inertia[0, 2])}</ixz>\n"
+        f"          <iyy>{f(inertia[1, 1])}</iyy><iyz>{f(inertia[1, 2])}</iyz>"
+        f"<izz>{f(inertia[2, 2])}</izz>\n"
+        "        </inertia>\n"
+        "      </inertial>\n"
+    )
+    for i, s in enumerate(b.shapes):
+        if s.role in ("both", "visual"):
+            rgba = fv(COLOURS[s.colour])
+            out.append(
+                f'      <visual name="{s.name or f"{b.name}_visual_{i}"}">\n'
+                f"        <pose>{fv(s.xyz)} {fv(s.rpy)}</pose>\n"
+                + sdf_geometry(s, "        ")
+                + f"        <material><diffuse>{rgba}</diffuse><ambient>{rgba}</ambient>"
+                "</material>\n"
+                "      </visual>\n"
+            )
+        if s.role in ("both", "collision"):
+            mu = b.extra_collision_mu.get(i, b.mu)
+            out.append(
+                f'      <collision name="{s.name or f"{b.name}_collision_{i}"}">\n'
+                f"        <pose>{fv(s.xyz)} {fv(s.rpy)}</pose>\n"
+                + sdf_geometry(s, "        ")
+                + "        <drake:proximity_properties>\n"
+                f"          <drake:mu_dynamic>{f(mu)}</drake:mu_dynamic>\n"
+                f"          <drake:mu_static>{f(mu)}</drake:mu_static>\n"
+                "        </drake:proximity_properties>\n"
+                "      </collision>\n"
+            )
+    out.append("    </link>\n")
+    return "".join(out)
+
+
+def sdf_file(model: str, comment: str, body_xml: str) -> str:
+    return (
+        '<?xml version="1.0"?>\n'
+        f"<!-- {comment}\n"
+        "     Generated by models/generate_models.py; primitive geometry only. -->\n"
+        '<sdf version="1.9" xmlns:drake="http://drake.mit.edu">\n'
+        f'  <model name="{model}">\n'
+        f"{body_xml}"
+        "  </model>\n"
+        "</sdf>\n"
+    )
+
+
+# --------------------------------------------------------------------------------- URDF output
+
+
+def urdf_geometry(s: Shape) -> str:
+    if s.kind == "box":
+        return f'<box size="{fv(s.dims)}"/>'
+    if s.kind == "cyl":
+        return f'<cylinder radius="{f(s.dims[0])}" length="{f(s.dims[1])}"/>'
+    if s.kind == "cap":
+        return f'<capsule radius="{f(s.dims[0])}" length="{f(s.dims[1])}"/>'
+    return f'<sphere radius="{f(s.dims[0])}"/>'
+
+
+def urdf_link(b: Body, inertia_override=None) -> str:
+    if inertia_override is None:
+        com, inertia = b.inertia()
+    else:
+        com, inertia = inertia_override
+    out = [
+        (
+            f'  <link name="{b.name}">\n'
+            "    <inertial>\n"
+            f'      <origin xyz="{fv(com)}" rpy="0 0 0"/>\n'
+            f'      <mass value="{f(b.mass)}"/>\n'
+            f'      <inertia ixx="{f(inertia[0, 0])}" ixy="{f(inertia[0, 1])}" '
+            f'ixz="{f(inertia[0, 2])}" iyy="{f(inertia[1, 1])}" iyz="{f(inertia[1, 2])}" '
+            f'izz="{f(inertia[2, 2])}"/>\n'
+            "    </inertial>\n"
+        )
+    ]
+    for s in b.shapes:
+        if s.role in ("both", "visual"):
+            out.append(
+                "    <visual>\n"
+                f'      <origin xyz="{fv(s.xyz)}" rpy="{fv(s.rpy)}"/>\n'
+                f"      <geometry>{urdf_geometry(s)}</geometry>\n"
+                f'      <material name="{s.colour}"/>\n'
+                "    </visual>\n"
+            )
+        if s.role in ("both", "collision"):
+            out.append(
+                "    <collision>\n"
+                f'      <origin xyz="{fv(s.xyz)}" rpy="{fv(s.rpy)}"/>\n'
+                f"      <geometry>{urdf_geometry(s)}</geometry>\n"
+                "      <drake:proximity_properties>\n"
+                f'        <drake:mu_dynamic value="{f(b.mu)}"/>\n'
+                f'        <drake:mu_static value="{f(b.mu)}"/>\n'
+                "      </drake:proximity_properties>\n"
+                "    </collision>\n"
+            )
+    out.append("  </link>\n")
+    return "".join(out)
+
+
+def urdf_materials(names) -> str:
+    return "".join(
+        f'  <material name="{n}"><color rgba="{fv(COLOURS[n])}"/></material>\n' for n in names
+    )
+
+
+def urdf_transmission(joint: str, actuator: str) -> str:
+    return (
+        f'  <transmission name="{joint}_transmission">\n'
+        "    <type>transmission_interface/SimpleTransmission</type>\n"
+        f'    <joint name="{joint}">\n'
+        "      <hardwareInterface>hardware_interface/EffortJointInterface</hardwareInterface>\n"
+        "    </joint>\n"
+        f'    <actuator name="{actuator}">\n'
+        "      <mechanicalReduction>1</mechanicalReduction>\n"
+        "    </actuator>\n"
+        "  </transmission>\n"
+    )
+
+
+# ================================================================================ the gripper
+
+GRIPPER_OPEN = 0.052
+PAD_RADIUS = 0.004
+PAD_XS = (0.045, 0.065, 0.085)
+PAD_ZS = (-0.01, 0.01)
+CAMERA_RPY = "-1.5707963267948966 0 -1.5707963267948966"
+
+
+def finger(name: str, side: float) -> Body:
+    """side = +1 (left, pads face -y) or -1 (right, pads face +y)."""
+    shapes = [Shape("box", (0.09, 0.012, 0.03), (0.045, side * 0.006, 0.0), colour="finger")]
+    # Light visual pad plate on the inner face (1 mm thick, inside the finger box: no mass).
+    shapes.append(
+        Shape(
+            "box",
+            (0.05, 0.001, 0.028),
+            (0.065, side * 0.0004, 0.0),
+            role="visual",
+            colour="pad",
+            inertial=False,
+            name=f"{name}_pad_visual",
+        )
+    )
+    mu = {}
+    for x in PAD_XS:
+        for z in PAD_ZS:
+            mu[len(shapes)] = 0.7
+            shapes.append(
+                Shape(
+                    "sph",
+                    (PAD_RADIUS,),
+                    (x, side * 0.003, z),
+                    role="collision",
+                    inertial=False,
+                    name=f"{name}_pad_{len(mu) - 1}",
+                )
+            )
+    return Body(name, 0.095, shapes, mu=0.7, extra_collision_mu=mu)
+
+
+def gripper_sdf() -> str:
+    base = Body(
+        "gripper_base",
+        0.16,
+        [
+            Shape("box", (0.07, 0.13, 0.05), (0.035, 0.0, 0.0), colour="gripper"),
+            # Camera bar (the T265): visual only, massless. Its front face is 2 mm behind the
+            # optical centres (x = 0.02) so that the cameras do not look out of its inside.
+            Shape(
+                "box",
+                (0.018, 0.09, 0.035),
+                (0.009, 0.0, 0.0425),
+                role="visual",
+                colour="camera",
+                inertial=False,
+            ),
+        ],
+        mu=0.7,
+    )
+    left = finger("left_finger", +1.0)
+    right = finger("right_finger", -1.0)
+
+    def joint(name, child, axis):
+        return (
+            f'    <joint name="{name}" type="prismatic">\n'
+            '      <pose relative_to="gripper_base">0.07 0 0 0 0 0</pose>\n'
+            "      <parent>gripper_base</parent>\n"
+            f"      <child>{child}</child>\n"
+            "      <axis>\n"
+            f'        <xyz expressed_in="gripper_base">{axis}</xyz>\n'
+            f"        <limit><lower>0</lower><upper>{f(GRIPPER_OPEN)}</upper>"
+            "<effort>40</effort><velocity>0.2</velocity></limit>\n"
+            "        <dynamics><damping>0.1</damping></dynamics>\n"
+            "      </axis>\n"
+            "    </joint>\n"
+        )
+
+    def frame(name, pose):
+        return (
+            f'    <frame name="{name}" attached_to="gripper_base">\n'
+            f'      <pose relative_to="gripper_base">{pose}</pose>\n'
+            "    </frame>\n"
+        )
+
+    body = (
+        sdf_body(base)
+        + sdf_body(left, ' relative_to="gripper_base">0.07 0 0 0 0 0')
+        + sdf_body(right, ' relative_to="gripper_base">0.07 0 0 0 0 0')
+        + joint("left_finger_joint", "left_finger", "0 1 0")
+        + joint("right_finger_joint", "right_finger", "0 -1 0")
+        + frame("gripper_tcp", "0.14 0 0 0 0 0")
+        + frame("left_camera_optical", f"0.02 0.032 0.0525 {CAMERA_RPY}")
+        + frame("right_camera_optical", f"0.02 -0.032 0.0525 {CAMERA_RPY}")
+        + '    <drake:collision_filter_group name="gripper_self">\n'
+        "      <drake:member>gripper_base</drake:member>\n"
+        "      <drake:member>left_finger</drake:member>\n"
+        "      <drake:member>right_finger</drake:member>\n"
+        "      <drake:ignored_collision_filter_group>gripper_self"
+        "</drake:ignored_collision_filter_group>\n"
+        "    </drake:collision_filter_group>\n"
+    )
+    comment = (
+        "LEGATO Gripper, prismatic two-finger model (SPEC section 3).\n"
+        "     Frame: +x approach (fingers), +z up (camera side), +y left. gripper_base's origin\n"
+        "     is the mount point at the back. Finger joint q = distance of a pad's inner face\n"
+        "     from the x-z plane: q = 0 closed, q = 0.052 open (inner pad gap 0.104 m).\n"
+        "     Pad contact spheres protrude 1 mm past the inner faces. Total mass 0.35 kg."
+    )
+    return sdf_file("legato_gripper", comment, body)
+
+
+# ================================================================================ abstract
+
+
+def abstract_urdf() -> str:
+    links = [
+        "abstract_root",
+        "abstract_x_link",
+        "abstract_y_link",
+        "abstract_z_link",
+        "abstract_roll_link",
+        "abstract_pitch_link",
+        "abstract_mount",
+    ]
+    joints = [
+        ("abstract_x", "prismatic", "1 0 0", -2.0, 2.0),
+        ("abstract_y", "prismatic", "0 1 0", -2.0, 2.0),
+        ("abstract_z", "prismatic", "0 0 1", 0.0, 2.0),
+        ("abstract_roll", "revolute", "1 0 0", -3.14159, 3.14159),
+        ("abstract_pitch", "revolute", "0 1 0", -1.5, 1.5),
+        ("abstract_yaw", "revolute", "0 0 1", -3.14159, 3.14159),
+    ]
+    inertia = (np.zeros(3), np.eye(3) * 1e-5)
+    out = [
+        (
+            '<?xml version="1.0"?>\n'
+            "<!-- The 'Abstract' embodiment (SPEC section 4): six virtual joints (x, y, z\n"
+            "     prismatic, then roll, pitch, yaw revolute) carrying abstract_mount, where the\n"
+            "     gripper is welded. The code welds abstract_root to the world.\n"
+            "     Generated by models/generate_models.py. -->\n"
+            '<robot name="abstract" xmlns:drake="http://drake.mit.edu">\n'
+        ),
+        urdf_materials(["marker"]),
+    ]
+    for name in links:
+        shapes = []
+        if name == "abstract_mount":
+            shapes = [Shape("sph", (0.01,), role="visual", colour="marker")]
+        out.append(urdf_link(Body(name, 0.01, shapes), inertia_override=inertia))
+    for (name, kind, axis, lo, hi), parent, child in zip(
+        joints, links[:-1], links[1:], strict=True
+    ):
+        out.append(
+            f'  <joint name="{name}" type="{kind}">\n'
+            f'    <parent link="{parent}"/>\n'
+            f'    <child link="{child}"/>\n'
+            '    <origin xyz="0 0 0" rpy="0 0 0"/>\n'
+            f'    <axis xyz="{axis}"/>\n'
+            f'    <limit lower="{f(lo)}" upper="{f(hi)}" effort="1000" velocity="2"/>\n'
+            "  </joint>\n"
+        )
+    for name, *_ in joints:
+        out.append(urdf_transmission(name, f"{name}_motor"))
+    out.append("</robot>\n")
+    return "".join(out)
+
+
+# ================================================================================ panda
+
+H = PI / 2
+
+
+def panda_bodies() -> list[Body]:
+    """Links in their own frames; shapes follow where the joint origins lie (SPEC section 4).
+
+    At q = 0: link1 at z 0.333 (world-aligned), link2 same point with y = -world z,
+    link3 at z 0.649 (world-aligned), link4 (elbow) at x 0.0825 with y = world z,
+    link5 at (0, 0, 1.033) world-aligned, link6 same point with y = world z, link7 at
+    x 0.088 with z = -world z, link8 (flange) 0.107 further along link7 z.
+    """
+    W, G, D = "panda_white", "panda_grey", "panda_dark"
+    return [
+        Body(
+            "panda_link0",
+            4.0,
+            [
+                Shape("cyl", (0.09, 0.14), (-0.02, 0.0, 0.07), colour=W),
+                Shape("box", (0.12, 0.15, 0.10), (-0.13, 0.0, 0.05), colour=W),
+                Shape(
+                    "cyl",
+                    (0.07, 0.05),
+                    (0.0, 0.0, 0.165),
+                    colour=D,
+                    role="visual",
+                    inertial=False,
+                ),
+            ],
+        ),
+        Body(
+            "panda_link1",
+            4.0,
+            [
+                capsule_between((0, 0, -0.19), (0, 0, -0.02), 0.062, colour=W),
+            ],
+        ),
+        Body(
+            "panda_link2",
+            3.0,
+            [
+                Shape("cyl", (0.062, 0.13), (0, 0, 0), colour=G),
+                capsule_between((0, 0, 0), (0, -0.20, 0), 0.058, colour=W),
+            ],
+        ),
+        Body(
+            "panda_link3",
+            3.0,
+            [
+                capsule_between((0, 0, -0.13), (0, 0, -0.01), 0.058, colour=W),
+                capsule_between((0, 0, -0.02), (0.0825, 0, -0.02), 0.055, colour=W),
+            ],
+        ),
+        Body(
+            "panda_link4",
+            2.0,
+            [
+                Shape("cyl", (0.056, 0.12), (0, 0, 0), colour=G),
+                capsule_between((0, 0, 0), (-0.0825, 0.10, 0), 0.052, colour=W),
+            ],
+        ),
+        Body(
+            "panda_link5",
+            2.0,
+            [
+                capsule_between((0, 0.02, -0.27), (0, 0.0, -0.04), 0.054, colour=W),
+                Shape(
+                    "cyl",
+                    (0.05, 0.03),
+                    (0, 0, -0.035),
+                    colour=D,
+                    role="visual",
+                    inertial=False,
+                ),
+            ],
+        ),
+        Body(
+            "panda_link6",
+            2.0,
+            [
+                Shape("cyl", (0.055, 0.12), (0, 0, 0), colour=G),
+                capsule_between((0.0, 0, 0), (0.088, 0, 0), 0.048, colour=W),
+            ],
+        ),
+        Body(
+            "panda_link7",
+            1.5,
+            [
+                Shape("cyl", (0.05, 0.11), (0, 0, 0.035), colour=W),
+                Shape(
+                    "box",
+                    (0.06, 0.05, 0.04),
+                    (0.035, 0.035, 0.06),
+                    rpy=(0, 0, PI / 4),
+                    colour=G,
+                ),
+            ],
+        ),
+        Body(
+            "panda_link8",
+            0.1,
+            [
+                Shape("cyl", (0.035, 0.017), (0, 0, -0.0085), colour=D),
+            ],
+        ),
+    ]
+
+
+PANDA_JOINTS = [
+    # name, xyz, rpy, lower, upper, effort, velocity
+    ("panda_joint1", (0, 0, 0.333), (0, 0, 0), -2.8973, 2.8973, 87, 2.175),
+    ("panda_joint2", (0, 0, 0), (-H, 0, 0), -1.7628, 1.7628, 87, 2.175),
+    ("panda_joint3", (0, -0.316, 0), (H, 0, 0), -2.8973, 2.8973, 87, 2.175),
+    ("panda_joint4", (0.0825, 0, 0), (H, 0, 0), -3.0718, -0.0698, 87, 2.175),
+    ("panda_joint5", (-0.0825, 0.384, 0), (-H, 0, 0), -2.8973, 2.8973, 12, 2.61),
+    ("panda_joint6", (0, 0, 0), (H, 0, 0), -0.0175, 3.7525, 12, 2.61),
+    ("panda_joint7", (0.088, 0, 0), (H, 0, 0), -2.8973, 2.8973, 12, 2.61),
+]
+
+
+def panda_urdf() -> str:
+    bodies = panda_bodies()
+    for b in bodies:
+        b.mu = 0.5
+    names = [b.name for b in bodies]
+    out = [
+        (
+            '<?xml version="1.0"?>\n'
+            "<!-- Franka Emika Panda, standard Franka kinematics (SPEC section 4), primitive\n"
+            "     geometry (capsules, cylinders, boxes) and inertias computed from those shapes.\n"
+            "     panda_link8 is the flange (0.107 m along link7 z). At q = 0 the flange lies at\n"
+            "     (0.088, 0, 0.926) in panda_link0. The code welds panda_link0 to the world.\n"
+            "     Generated by models/generate_models.py. -->\n"
+            '<robot name="panda" xmlns:drake="http://drake.mit.edu">\n'
+        ),
+        urdf_materials(["panda_white", "panda_grey", "panda_dark"]),
+    ]
+    out += [urdf_link(b) for b in bodies]
+    for i, (name, xyz, rpy, lo, hi, effort, vel) in enumerate(PANDA_JOINTS):
+        out.append(
+            f'  <joint name="{name}" type="revolute">\n'
+            f'    <parent link="{names[i]}"/>\n'
+            f'    <child link="{names[i + 1]}"/>\n'
+            f'    <origin xyz="{fv(xyz)}" rpy="{fv(rpy)}"/>\n'
+            '    <axis xyz="0 0 1"/>\n'
+            f'    <limit lower="{f(lo)}" upper="{f(hi)}" effort="{f(effort)}" '
+            f'velocity="{f(vel)}"/>\n'
+            '    <dynamics damping="0.1"/>\n'
+            "  </joint>\n"
+        )
+    out.append(
+        '  <joint name="panda_joint8" type="fixed">\n'
+        '    <parent link="panda_link7"/>\n'
+        '    <child link="panda_link8"/>\n'
+        '    <origin xyz="0 0 0.107" rpy="0 0 0"/>\n'
+        "  </joint>\n"
+    )
+    for name, *_ in PANDA_JOINTS:
+        out.append(urdf_transmission(name, f"{name}_motor"))
+    out.append('  <drake:collision_filter_group name="panda_self">\n')
+    out += [f'    <drake:member link="{n}"/>\n' for n in names]
+    out.append('    <drake:ignored_collision_filter_group name="panda_self"/>\n')
+    out.append("  </drake:collision_filter_group>\n")
+    out.append("</robot>\n")
+    return "".join(out)
+
+
+# ================================================================================ lid scene
+
+
+def table_sdf() -> str:
+    shapes = [Shape("box", (1.3, 2.0, 0.04), (0, 0, -0.02), colour="wood")]
+    for x in (-0.6, 0.6):
+        for y in (-0.95, 0.95):
+            shapes.append(
+                Shape(
+                    "box",
+                    (0.05, 0.05, 0.6),
+                    (x, y, -0.34),
+                    role="visual",
+                    colour="wood_dark",
+                    inertial=False,
+                )
+            )
+    body = Body("table_top", 20.0, shapes, mu=0.7)
+    return sdf_file(
+        "table",
+        "Table (SPEC section 6): table_top's origin is the centre of the top surface; the\n"
+        "     1.3 x 2.0 x 0.04 top hangs below it; the legs are visual only. The code welds it.",
+        sdf_body(body),
+    )
+
+
+def support_spheres(xys, radius: float, bottom: float) -> list[Shape]:
+    """Massless collision spheres whose lowest points are flush with z = bottom.
+
+    Drake's point contact gives a box-on-box or disc-on-box pair a single contact point, so
+    a flat body rocks from corner to corner and slowly sinks into its support; a few
+    spheres at the corners of its bottom face give it a stable multi-point support.
+    """
+    return [
+        Shape("sph", (radius,), (x, y, bottom + radius), role="collision", inertial=False)
+        for x, y in xys
+    ]
+
+
+def stove_sdf() -> str:
+    body = Body(
+        "stove",
+        1.0,
+        [
+            Shape("box", (0.30, 0.24, 0.02), colour="stove"),
+            Shape(
+                "cyl",
+                (0.07, 0.002),
+                (0, 0, 0.0105),
+                role="visual",
+                colour="burner",
+                inertial=False,
+            ),
+            *support_spheres(
+                [(sx * 0.145, sy * 0.115) for sx in (1, -1) for sy in (1, -1)], 0.005, -0.01
+            ),
+        ],
+        mu=0.7,
+    )
+    return sdf_file(
+        "stove",
+        "Stove (SPEC section 6): 0.30 x 0.24 x 0.02 box, origin at the box centre, with a\n"
+        "     visual-only burner disc on top. Four collision spheres flush with the bottom\n"
+        "     corners give the box a stable multi-point support under point contact.",
+        sdf_body(body),
+    )
+
+
+POT_N = 16
+POT_R_OUT = 0.095
+POT_WALL = 0.008
+POT_H = 0.1
+POT_BASE = 0.01
+
+
+def pot_sdf() -> str:
+    shapes = [Shape("box", (0.2, 0.2, 0.01), (0, 0, 0.005), colour="pot")]
+    seg = 2 * POT_R_OUT * math.tan(PI / POT_N)  # closes the ring at the outer face
+    rc = POT_R_OUT - POT_WALL / 2
+    for k in range(POT_N):
+        a = 2 * PI * k / POT_N
+        shapes.append(
+            Shape(
+                "box",
+                (POT_WALL, seg, POT_H - POT_BASE),
+                (rc * math.cos(a), rc * math.sin(a), (POT_H + POT_BASE) / 2),
+                (0, 0, a),
+                colour="pot",
+            )
+        )
+    for s in (1.0, -1.0):
+        shapes.append(
+            Shape(
+                "box",
+                (0.04, 0.03, 0.01),
+                (0, s * (POT_R_OUT - 0.002 + 0.015), 0.085),
+                colour="pot_handle",
+            )
+        )
+    shapes += support_spheres(
+        [(sx * 0.09, sy * 0.09) for sx in (1, -1) for sy in (1, -1)], 0.005, 0.0)
+    body = Body("pot", 0.4, shapes, mu=0.5)
+    frame = (
+        '    <frame name="pot_rim" attached_to="pot">\n'
+        '      <pose relative_to="pot">0 0 0.1 0 0 0</pose>\n'
+        "    </frame>\n"
+    )
+    return sdf_file(
+        "pot",
+        "Pot (SPEC section 6): origin at the centre of the bottom face; 0.2 x 0.2 x 0.01\n"
+        "     base plate; wall of outer radius 0.095, thickness 0.008, up to 0.1, made of 16\n"
+        "     tangential boxes standing on the plate; two side handles at +-y; 0.4 kg. Four\n"
+        "     collision spheres flush with the bottom corners give it a stable support.\n"
+        "     pot_rim = centre of the rim plane.",
+        sdf_body(body) + frame,
+    )
+
+
+def lid_sdf() -> str:
+    body = Body(
+        "lid",
+        0.16,
+        [
+            Shape("cyl", (0.11, 0.01), colour="lid", mass=0.12),
+            Shape("box", (0.02, 0.08, 0.02), (0, 0, 0.045), colour="lid_handle"),
+            Shape("box", (0.012, 0.012, 0.03), (0, 0.034, 0.02), colour="lid_handle"),
+            Shape("box", (0.012, 0.012, 0.03), (0, -0.034, 0.02), colour="lid_handle"),
+            *support_spheres(
+                [(0.1 * math.cos(k * PI / 4), 0.1 * math.sin(k * PI / 4)) for k in range(8)],
+                0.004,
+                -0.005,
+            ),
+        ],
+        mu=0.8,
+    )
+    frame = (
+        '    <frame name="lid_handle" attached_to="lid">\n'
+        '      <pose relative_to="lid">0 0 0.045 0 0 0</pose>\n'
+        "    </frame>\n"
+    )
+    return sdf_file(
+        "lid",
+        "Lid (SPEC section 6): origin at the centre of the disc (radius 0.11, 0.01 thick);\n"
+        "     bar handle 0.08 long along the lid's y, 0.02 x 0.02, centre 0.04 above the disc\n"
+        "     top (z 0.045), on two posts at y = +-0.034. lid_handle = bar centre. Eight\n"
+        "     collision spheres flush with the disc's bottom face (radius 0.1) give it a\n"
+        "     stable multi-point support on flat surfaces under point contact.",
+        sdf_body(body) + frame,
+    )
+
+
+PACKAGE_XML = """<?xml version="1.0"?>
+<package format="2">
+  <name>legato_drake</name>
+  <version>0.1.0</version>
+  <description>Primitive-geometry simulation models of legato-drake (LEGATO gripper,
+    Abstract and Panda embodiments, lid task scene).</description>
+  <maintainer email="legato-drake@example.com">legato-drake</maintainer>
+  <license>MIT</license>
+</package>
+"""
+
+
+def main() -> None:
+    files = {
+        "package.xml": PACKAGE_XML,
+        "legato_gripper.sdf": gripper_sdf(),
+        "abstract.urdf": abstract_urdf(),
+        "panda.urdf": panda_urdf(),
+        "table.sdf": table_sdf(),
+        "stove.sdf": stove_sdf(),
+        "pot.sdf": pot_sdf(),
+        "lid.sdf": lid_sdf(),
+    }
+    for name, text in files.items():
+        (HERE / name).write_text(text)
+        print("wrote", HERE / name)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,81 @@
+"""ScriptedDemonstrator alone: its actions replay the script, determinism per seed."""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.math import RigidTransform
+from pydrake.systems.analysis import Simulator
+
+from legato_drake import conventions
+from legato_drake.poses import apply_delta, pose_error
+from legato_drake.systems.scripted_demonstrator import (
+    ScriptedDemonstrator,
+    min_jerk,
+    script_from_waypoints,
+)
+from legato_drake.tasks.base import Waypoint
+
+
+def _demonstrator(plant_tuple, seed):
+    plant, _, _, task = plant_tuple
+    system = ScriptedDemonstrator(plant, task, seed)
+    context = system.CreateDefaultContext()
+    plant_context = plant.CreateDefaultContext()
+    task.set_initial_state(plant, plant_context, np.random.default_rng(seed))
+    system.get_plant_state_input_port().FixValue(
+        context, plant.GetPositionsAndVelocities(plant_context))
+    return system, context
+
+
+def _actions(system, context, steps):
+    simulator = Simulator(system, context)
+    actions = []
+    for k in range(steps):
+        simulator.AdvanceTo(conventions.HOMING_DURATION + conventions.CONTROLLER_OFFSET
+                            + k * conventions.POLICY_PERIOD + 0.01)
+        actions.append(system.GetOutputPort("action").Eval(context).copy())
+    return np.array(actions)
+
+
+def test_min_jerk_profile():
+    assert min_jerk(0.0) == 0.0 and min_jerk(1.0) == 1.0
+    assert abs(min_jerk(0.5) - 0.5) < 1e-12
+
+
+def test_script_reaches_every_waypoint():
+    X0 = conventions.START_POSE
+    wps = [Waypoint(RigidTransform([0.3, -0.3, 0.8]), grasp=False, speed=0.2),
+           Waypoint(RigidTransform([0.3, -0.3, 0.8]), grasp=True, hold=0.5)]
+    script = script_from_waypoints(X0, wps)
+    assert len(script) == 10 + 5
+    assert pose_error(script.pose(9), wps[0].pose) < (1e-12, 1e-12)
+    np.testing.assert_array_equal(script.grasps, [0.0] * 10 + [1.0] * 5)
+
+
+def test_actions_integrate_to_the_script(panda_plant):
+    system, context = _demonstrator(panda_plant, seed=3)
+    n = 40
+    actions = _actions(system, context, n)
+    script = system.script(context)
+    X = conventions.START_POSE
+    for k in range(n):
+        X = apply_delta(X, actions[k, :6])
+    dp, dr = pose_error(X, script.pose(n - 1))
+    assert dp < 1e-9 and dr < 1e-9
+    assert set(np.unique(actions[:, 6])) <= {0.0, 1.0}
+
+
+def test_same_seed_same_actions_other_seed_other_actions(panda_plant):
+    a = _actions(*_demonstrator(panda_plant, seed=5), 20)
+    b = _actions(*_demonstrator(panda_plant, seed=5), 20)
+    c = _actions(*_demonstrator(panda_plant, seed=6), 20)
+    np.testing.assert_array_equal(a, b)
+    assert not np.allclose(a, c)
+
+
+def test_done_after_the_script(panda_plant):
+    system, context = _demonstrator(panda_plant, seed=0)
+    assert system.GetOutputPort("done").Eval(context)[0] == 0.0
+    Simulator(system, context).AdvanceTo(conventions.HOMING_DURATION + 60.0)
+    assert system.GetOutputPort("done").Eval(context)[0] == 1.0
+    np.testing.assert_array_equal(system.GetOutputPort("action").Eval(context)[:6], 0.0)
