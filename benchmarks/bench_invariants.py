@@ -1,11 +1,14 @@
 """Time phi and L_invar on CPU: batch of 16 windows x 20 steps (float32 torch, plus numpy).
 
-Run ``python benchmarks/bench_invariants.py``; prints one table (median and p95 microseconds
-per call over a few hundred calls after warm-up).
+Run ``python benchmarks/bench_invariants.py [--threads N]``; prints one table (median and p95
+microseconds per call over a few hundred calls after warm-up). The default of 2 threads is the
+project's 2-core machine; on a machine whose other core is busy, 1 thread avoids the long
+stalls of a descheduled intra-op worker.
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 from collections.abc import Callable
@@ -36,7 +39,10 @@ def time_calls(fn: Callable[[], object]) -> tuple[float, float]:
 
 
 def main() -> None:
-    torch.set_num_threads(THREADS)
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--threads", type=int, default=THREADS, help="torch.set_num_threads")
+    threads = parser.parse_args().threads
+    torch.set_num_threads(threads)
     rng = np.random.default_rng(0)
     deltas_np = (rng.normal(size=(BATCH, STEPS, 6)) * 0.02).astype(np.float32)
     deltas = torch.from_numpy(deltas_np)
@@ -69,7 +75,7 @@ def main() -> None:
         ("L_invar chunk P+1=16, forward + backward", chunk_forward_backward),
     ]
     print(f"batch {BATCH} x {STEPS} steps, CPU, torch {torch.__version__}, "
-          f"torch.set_num_threads({THREADS}), {CALLS} calls after {WARMUP} warm-up")
+          f"torch.set_num_threads({threads}), {CALLS} calls after {WARMUP} warm-up")
     print(f"| {'what':<42} | {'median us':>9} | {'p95 us':>8} |")
     print(f"| {'-' * 42} | {'-' * 9}:| {'-' * 7}:|")
     for name, fn in rows:

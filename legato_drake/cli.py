@@ -23,37 +23,99 @@ def _names(value: str, registry: dict, kind: str) -> list[str]:
     return names
 
 
+def _seeds(value: str) -> list[int]:
+    """``7`` -> [7]; ``0-49`` -> [0, ..., 49]; ``1,5,9`` -> [1, 5, 9]."""
+    try:
+        if "-" in value:
+            low, high = (int(v) for v in value.split("-", 1))
+            if high < low:
+                raise ValueError
+            return list(range(low, high + 1))
+        return [int(v) for v in value.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"--seeds {value!r}: expected N, A-B (A <= B) or a comma-separated list") from None
+
+
+def _demo_episode(job: tuple) -> dict:
+    """Runs one demo episode (in a worker process) and returns its result as a dict."""
+    from legato_drake.episode import run_episode
+
+    scenario, html = job
+    result = run_episode(scenario, html=html)
+    return {**result.to_dict(), "html": str(html) if html else None}
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
-    """Runs the scripted demonstrator per embodiment and task, writes replays, prints a table."""
+    """Runs the scripted demonstrator per embodiment, task and seed; writes replays; prints a
+    table (one row per episode, or per embodiment and task with 95 % Wilson intervals)."""
+    import multiprocessing
+
     from tqdm import tqdm
 
     from legato_drake.embodiments import EMBODIMENTS
-    from legato_drake.episode import run_episode
+    from legato_drake.files import atomic_write_text
     from legato_drake.report import format_table
     from legato_drake.scenario import Scenario, load_scenario
+    from legato_drake.stats import wilson_interval
     from legato_drake.tasks import TASKS
 
     base = load_scenario(args.scenario) if args.scenario else Scenario()
     embodiments = _names(args.embodiment, EMBODIMENTS, "embodiment")
     tasks = _names(args.task, TASKS, "task")
+    seeds = args.seeds if args.seeds is not None else [base.seed]
     if args.no_camera:
         base.camera.enabled = False
     out = Path(args.out)
-    rows = []
-    jobs = [(e, t) for e in embodiments for t in tasks]
-    for embodiment, task in tqdm(jobs, desc="demo", unit="episode", disable=None):
-        scenario = base.replace(embodiment=embodiment, task=task,
-                                seed=base.seed if args.seed is None else args.seed)
-        html = None if args.no_replay else out / f"{embodiment}-{task}-seed{scenario.seed}.html"
-        result = run_episode(scenario, html=html)
-        rows.append([embodiment, task, scenario.seed, result.success,
-                     result.reason or "-", result.tracking.rms_mm, result.tracking.rms_deg,
-                     result.sim_time, result.wall_time, result.real_time_factor])
-        if html is not None:
-            log.info("wrote %s", html)
-    print(format_table(["embodiment", "task", "seed", "success", "why not", "rms mm",
-                        "rms deg", "sim s", "wall s", "x real time"], rows))
-    return 0 if all(r[3] for r in rows) else 1
+    jobs = []
+    for embodiment in embodiments:
+        for task in tasks:
+            for seed in seeds:
+                scenario = base.replace(embodiment=embodiment, task=task, seed=seed)
+                html = None if args.no_replay else out / f"{embodiment}-{task}-seed{seed}.html"
+                jobs.append((scenario, html))
+    progress = dict(total=len(jobs), desc="demo", unit="episode", disable=None)
+    if args.workers > 1 and len(jobs) > 1:
+        with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
+            results = list(tqdm(pool.imap(_demo_episode, jobs), **progress))
+    else:
+        results = [_demo_episode(job) for job in tqdm(jobs, **progress)]
+    for r in results:
+        if r["html"]:
+            log.info("wrote %s", r["html"])
+
+    if len(seeds) == 1:
+        rows = [[r["embodiment"], r["task"], r["seed"], r["success"], r["reason"] or "-",
+                 r["tracking"]["rms_mm"], r["tracking"]["rms_deg"], r["sim_time"],
+                 r["wall_time"], r["real_time_factor"]] for r in results]
+        print(format_table(["embodiment", "task", "seed", "success", "why not", "rms mm",
+                            "rms deg", "sim s", "wall s", "x real time"], rows))
+    else:
+        rows = []
+        for embodiment in embodiments:
+            for task in tasks:
+                group = [r for r in results
+                         if r["embodiment"] == embodiment and r["task"] == task]
+                k = sum(r["success"] for r in group)
+                low, high = wilson_interval(k, len(group))
+                rows.append([embodiment, task, f"{k}/{len(group)}",
+                             f"{100 * low:.0f}-{100 * high:.0f}",
+                             max(r["tracking"]["rms_mm"] for r in group),
+                             max(r["tracking"]["rms_deg"] for r in group),
+                             max(r["tracking"]["max_mm"] for r in group),
+                             sum(r["sim_time"] for r in group) /
+                             sum(r["wall_time"] for r in group)])
+        print(format_table(["embodiment", "task", "success", "95% CI %", "worst rms mm",
+                            "worst rms deg", "worst max mm", "x real time"], rows))
+        failures = [f"{r['embodiment']}/{r['task']}/seed {r['seed']}: {r['reason']}"
+                    for r in results if not r["success"]]
+        for line in failures:
+            log.warning("failed: %s", line)
+    if args.json:
+        import json
+
+        atomic_write_text(Path(args.json), json.dumps(results, indent=1))
+    return 0 if all(r["success"] for r in results) else 1
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -73,7 +135,11 @@ def build_parser() -> argparse.ArgumentParser:
                       help="embodiment name, comma-separated names, or 'all' "
                            "(default: abstract,panda)")
     demo.add_argument("--task", default="lid", help="task name, names, or 'all' (default: lid)")
-    demo.add_argument("--seed", type=int, default=None, help="episode seed (default: 0)")
+    demo.add_argument("--seeds", "--seed", type=_seeds, default=None, metavar="SEEDS",
+                      help="seed N, range A-B or list A,B,C (default: the scenario's, 0)")
+    demo.add_argument("--workers", type=int, default=1,
+                      help="worker processes for several episodes (default: 1)")
+    demo.add_argument("--json", help="also write every episode's result to this JSON file")
     demo.add_argument("--out", default="replays", help="folder for the HTML replays")
     demo.add_argument("--scenario", help="scenario YAML to start from (fields: see README)")
     demo.add_argument("--no-camera", action="store_true", help="do not render the cameras")

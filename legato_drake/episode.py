@@ -62,13 +62,24 @@ def initialize(built: LegatoDiagram, simulator: Simulator) -> None:
                                  np.random.default_rng(built.scenario.seed))
 
 
-def run_episode(scenario: Scenario, html: str | Path | None = None,
-                built: LegatoDiagram | None = None) -> EpisodeResult:
-    """Simulates one episode of ``scenario``; with ``html``, writes a Meshcat replay there."""
+def run_episode(scenario: Scenario, html: str | Path | None = None) -> EpisodeResult:
+    """Builds and simulates one episode of ``scenario``; with ``html``, writes a Meshcat
+    replay there (atomically)."""
     scenario = scenario.validate()
-    if built is None:
-        meshcat = make_meshcat() if html is not None or scenario.recording.meshcat else None
-        built = build_diagram(scenario, meshcat)
+    meshcat = make_meshcat() if html is not None or scenario.recording.meshcat else None
+    built = build_diagram(scenario, meshcat)
+    _, result = simulate(built)
+    if html is not None:
+        atomic_write_text(Path(html), built.meshcat.StaticHtml())
+    return result
+
+
+def simulate(built: LegatoDiagram) -> tuple[Simulator, EpisodeResult]:
+    """Simulates a built diagram from its scenario's seeded initial state until success (if
+    ``stop_on_success``), the controller is done, or the time limit; records the Meshcat
+    replay if the diagram has a visualizer. Returns the simulator (its context holds the
+    final state) and the result."""
+    scenario = built.scenario
     simulator = Simulator(built.diagram)
     initialize(built, simulator)
     context = simulator.get_mutable_context()
@@ -95,22 +106,21 @@ def run_episode(scenario: Scenario, html: str | Path | None = None,
     simulator.Initialize()
     simulator.AdvanceTo(t_end)
     wall = time.perf_counter() - start
-
-    report = built.success.evaluate(built.success.GetMyContextFromRoot(context))
-    first = built.success.GetOutputPort("first_success_time").Eval(
-        built.success.GetMyContextFromRoot(context))[0]
-    stats = TrackingStats.from_vector(built.tracking.GetOutputPort("stats").Eval(
-        built.tracking.GetMyContextFromRoot(context)))
-    sim_time = context.get_time()
     if built.visualizer is not None:
         built.visualizer.StopRecording()
         built.visualizer.PublishRecording()
-        if html is not None:
-            atomic_write_text(Path(html), built.meshcat.StaticHtml())
-    return EpisodeResult(
+
+    success_context = built.success.GetMyContextFromRoot(context)
+    report = built.success.evaluate(success_context)
+    first = built.success.GetOutputPort("first_success_time").Eval(success_context)[0]
+    stats = TrackingStats.from_vector(built.tracking.GetOutputPort("stats").Eval(
+        built.tracking.GetMyContextFromRoot(context)))
+    sim_time = context.get_time()
+    result = EpisodeResult(
         embodiment=scenario.embodiment, task=scenario.task, controller=scenario.controller,
         seed=scenario.seed, success=report.success, reason=report.reason,
         success_time=None if np.isnan(first) else float(first - conventions.HOMING_DURATION),
         episode_time=max(sim_time - conventions.HOMING_DURATION, 0.0), sim_time=sim_time,
         wall_time=wall, real_time_factor=sim_time / wall if wall > 0 else float("inf"),
         tracking=stats, metrics=report.metrics)
+    return simulator, result

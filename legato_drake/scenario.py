@@ -11,14 +11,13 @@ Example ``scenario.yaml`` (every field is optional; the defaults are shown)::
     recording: {meshcat: false, fps: 30.0}
 """
 
-from __future__ import annotations
-
+# No ``from __future__ import annotations`` here: pydrake's YAML loader reads the field types.
 import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from pydrake.common.yaml import yaml_load_typed
+from pydrake.common.yaml import yaml_load, yaml_load_typed
 
 from legato_drake.errors import ConfigError, unknown_name
 
@@ -70,7 +69,7 @@ class Scenario:
     camera: CameraConfig = field(default_factory=CameraConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
 
-    def validate(self, where: str = "") -> Scenario:
+    def validate(self, where: str = "") -> "Scenario":
         """Checks every field against what is allowed; raises ConfigError naming the field."""
         from legato_drake.embodiments import EMBODIMENTS
         from legato_drake.tasks import TASKS
@@ -98,9 +97,56 @@ class Scenario:
             raise ConfigError(f"recording.fps{place} must be positive, got {self.recording.fps}")
         return self
 
-    def replace(self, **changes) -> Scenario:
+    def replace(self, **changes) -> "Scenario":
         """Returns a copy with the given fields changed (and validated)."""
         return dataclasses.replace(self, **changes).validate()
+
+
+_YAML_ERRORS = (RuntimeError, ValueError, TypeError, AssertionError, KeyError)
+
+
+def _yaml_message(error: Exception) -> str:
+    return str(error) or type(error).__name__
+
+
+def check_fields(raw: object, schema: type, prefix: str = "") -> None:
+    """Checks parsed YAML against a dataclass schema; raises ConfigError naming the field
+    path and what it allows (Drake's own messages name neither)."""
+    where = prefix.rstrip(".") or "the scenario"
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{where} must be a mapping of fields, got {raw!r}")
+    fields = {f.name: f for f in dataclasses.fields(schema)}
+    for key, value in raw.items():
+        if key not in fields:
+            raise ConfigError(f"unknown field {prefix}{key!r}; valid fields: "
+                              f"{', '.join(fields)}")
+        kind = fields[key].type
+        if dataclasses.is_dataclass(kind):
+            check_fields(value, kind, f"{prefix}{key}.")
+        elif kind is bool and not isinstance(value, bool):
+            raise ConfigError(f"{prefix}{key} must be true or false, got {value!r}")
+        elif kind is int and (isinstance(value, bool) or not isinstance(value, int)):
+            raise ConfigError(f"{prefix}{key} must be an integer, got {value!r}")
+        elif kind is float and (isinstance(value, bool) or not isinstance(value, int | float)):
+            raise ConfigError(f"{prefix}{key} must be a number, got {value!r}")
+        elif kind is str and not isinstance(value, str):
+            raise ConfigError(f"{prefix}{key} must be a string, got {value!r}")
+
+
+def _load(data: str, where: str) -> "Scenario":
+    try:
+        raw = yaml_load(data=data) if data.strip() else {}
+    except _YAML_ERRORS as e:
+        raise ConfigError(f"malformed scenario {where}: {_yaml_message(e)}") from None
+    try:
+        check_fields(raw, Scenario)
+    except ConfigError as e:
+        raise ConfigError(f"malformed scenario {where}: {e}") from None
+    try:
+        scenario = yaml_load_typed(schema=Scenario, data=data, defaults=Scenario())
+    except _YAML_ERRORS as e:
+        raise ConfigError(f"malformed scenario {where}: {_yaml_message(e)}") from None
+    return scenario.validate(where=where)
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -108,17 +154,9 @@ def load_scenario(path: str | Path) -> Scenario:
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"scenario file not found: {path}")
-    try:
-        scenario = yaml_load_typed(schema=Scenario, filename=str(path), defaults=Scenario())
-    except RuntimeError as e:  # Drake's YAML errors name the key; keep its words
-        raise ConfigError(f"malformed scenario file {path}: {e}") from None
-    return scenario.validate(where=str(path))
+    return _load(path.read_text(), str(path))
 
 
 def scenario_from_yaml_text(text: str, where: str = "<string>") -> Scenario:
     """Parses a scenario from YAML text (for notebooks and tests)."""
-    try:
-        scenario = yaml_load_typed(schema=Scenario, data=text, defaults=Scenario())
-    except RuntimeError as e:
-        raise ConfigError(f"malformed scenario {where}: {e}") from None
-    return scenario.validate(where=where)
+    return _load(text, where)

@@ -87,10 +87,8 @@ def reference_phi(positions: np.ndarray, rotations: np.ndarray) -> np.ndarray:
 
 def well_conditioned(positions: np.ndarray, rotations: np.ndarray) -> bool:
     """Segments that move, turn, and whose osculating planes do not jump by ~90 degrees."""
-    deltas = inv.poses_to_deltas(positions, rotations)
-    linear = np.stack([rotations[0].T @ d for d in np.diff(positions, axis=0)])
-    angular = np.stack([log_so3(rotations[k].T @ rotations[k + 1])
-                        for k in range(len(deltas))])
+    linear = np.diff(positions, axis=0)
+    angular = np.stack([log_so3(rotations[k].T @ rotations[k + 1]) for k in range(len(linear))])
     for v in (linear, angular):
         x = v / np.linalg.norm(v, axis=-1, keepdims=True)
         y = np.cross(x[:-1], x[1:])
@@ -130,6 +128,22 @@ def test_rpy_matrix_round_trip_and_convention() -> None:
     np.testing.assert_allclose(inv.rpy_to_matrix(np.array([r, p, y])), rz @ ry @ rx, atol=1e-12)
     np.testing.assert_allclose(inv.quaternion_to_matrix(inv.rpy_to_quaternion(rpy)), matrices,
                                atol=1e-12)
+
+
+def test_conventions_match_drake() -> None:
+    drake_math = pytest.importorskip("pydrake.math")
+    rng = np.random.default_rng(6)
+    for rpy in rng.uniform([-3, -1.5, -3], [3, 1.5, 3], size=(20, 3)):
+        drake_rpy = drake_math.RollPitchYaw(rpy)
+        matrix = drake_rpy.ToRotationMatrix().matrix()
+        np.testing.assert_allclose(inv.rpy_to_matrix(rpy), matrix, atol=1e-12)
+        wxyz = drake_rpy.ToQuaternion().wxyz()
+        wxyz = wxyz * np.sign(wxyz[0])  # the sign with w >= 0
+        ours = inv.rpy_to_quaternion(rpy)
+        np.testing.assert_allclose(ours * np.sign(ours[0]), wxyz, atol=1e-12)
+        np.testing.assert_allclose(inv.matrix_to_quaternion(matrix), wxyz, atol=1e-12)
+        drake_back = drake_math.RollPitchYaw(drake_math.RotationMatrix(matrix)).vector()
+        np.testing.assert_allclose(inv.matrix_to_rpy(matrix), drake_back, atol=1e-9)
 
 
 def test_quaternion_matrix_round_trip_including_angles_near_pi() -> None:

@@ -28,8 +28,8 @@ class TrackingStats:
     @classmethod
     def from_vector(cls, x: np.ndarray) -> TrackingStats:
         n = max(int(x[0]), 1)
-        return cls(int(x[0]), 1e3 * np.sqrt(x[1] / n), 1e3 * x[3],
-                   np.degrees(np.sqrt(x[2] / n)), np.degrees(x[4]))
+        return cls(int(x[0]), float(1e3 * np.sqrt(x[1] / n)), float(1e3 * x[3]),
+                   float(np.degrees(np.sqrt(x[2] / n))), float(np.degrees(x[4])))
 
 
 class TrackingMonitor(LeafSystem):

@@ -1,0 +1,27 @@
+# The two commands of the README's quick start, and a few more for developers.
+VENV ?= .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: demo test lint bench setup clean
+
+$(STAMP): pyproject.toml scripts/setup.sh
+	bash scripts/setup.sh $(VENV)
+	touch $(STAMP)
+
+setup: $(STAMP)
+
+demo: $(STAMP)  ## set up, then run the scripted demo on Abstract and Panda (lid task)
+	$(BIN)/legato-drake demo
+
+test: $(STAMP)  ## set up, then run the whole test suite (ruff, pytest, the notebooks)
+	$(BIN)/ruff check legato_drake tests benchmarks models
+	$(BIN)/python -m pytest -n 2 --durations=15
+
+bench: $(STAMP)  ## speed benchmarks (tables on stdout)
+	$(BIN)/python benchmarks/bench_closed_loop.py
+	$(BIN)/python benchmarks/bench_ik.py
+	$(BIN)/python benchmarks/bench_invariants.py
+
+clean:
+	rm -rf $(VENV) replays .pytest_cache
