@@ -61,7 +61,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from legato_drake.tasks import TASKS
 
     base = load_scenario(args.scenario) if args.scenario else Scenario()
-    embodiments = _names(args.embodiment, EMBODIMENTS, "embodiment")
+    if args.embodiment_file:
+        base = base.replace(embodiment_file=str(Path(args.embodiment_file).resolve()))
+        embodiments = [base.embodiment]
+    else:
+        embodiments = _names(args.embodiment, EMBODIMENTS, "embodiment")
     tasks = _names(args.task, TASKS, "task")
     seeds = args.seeds if args.seeds is not None else [base.seed]
     if args.no_camera:
@@ -134,6 +138,9 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--embodiment", default="abstract,panda",
                       help="embodiment name, comma-separated names, or 'all' "
                            "(default: abstract,panda)")
+    demo.add_argument("--embodiment-file", metavar="YAML",
+                      help="a robot defined in a YAML file (see README, 'Bring your own "
+                           "robot'); replaces --embodiment")
     demo.add_argument("--task", default="lid", help="task name, names, or 'all' (default: lid)")
     demo.add_argument("--seeds", "--seed", type=_seeds, default=None, metavar="SEEDS",
                       help="seed N, range A-B or list A,B,C (default: the scenario's, 0)")

@@ -36,7 +36,7 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer
 
 from legato_drake import conventions
-from legato_drake.embodiments import RobotHandles, add_embodiment, get_embodiment
+from legato_drake.embodiments import RobotHandles, add_embodiment, resolve_embodiment
 from legato_drake.models import add_package
 from legato_drake.scenario import Scenario
 from legato_drake.systems.gravity_compensation import GravityCompensation
@@ -81,7 +81,8 @@ def build_plant(scenario: Scenario, builder: DiagramBuilder
                                   discrete_contact_approximation="sap")
     plant, scene_graph = AddMultibodyPlant(config, builder)
     parser = add_package(Parser(plant))
-    robot = add_embodiment(plant, parser, get_embodiment(scenario.embodiment))
+    robot = add_embodiment(plant, parser, resolve_embodiment(scenario.embodiment,
+                                                             scenario.embodiment_file))
     task = make_task(scenario.task)
     task.add_to_plant(plant, parser)
     plant.Finalize()

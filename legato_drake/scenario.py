@@ -55,7 +55,10 @@ class Scenario:
     """One episode: which robot, which task, which controller, which seed."""
 
     embodiment: str = "panda"
-    """Registered embodiment name (``legato_drake.embodiments.EMBODIMENTS``)."""
+    """Registered embodiment name (``legato_drake.embodiments.EMBODIMENTS``); ignored when
+    ``embodiment_file`` is set."""
+    embodiment_file: str = ""
+    """An embodiment YAML file (bring your own robot; see ``embodiments/from_file.py``)."""
     task: str = "lid"
     """Registered task name (``legato_drake.tasks.TASKS``)."""
     controller: str = "scripted"
@@ -74,7 +77,11 @@ class Scenario:
         from legato_drake.embodiments import EMBODIMENTS
         from legato_drake.tasks import TASKS
 
-        if self.embodiment not in EMBODIMENTS:
+        if self.embodiment_file:
+            from legato_drake.embodiments.from_file import load_embodiment_file
+
+            self.embodiment = load_embodiment_file(self.embodiment_file).name
+        elif self.embodiment not in EMBODIMENTS:
             raise unknown_name("embodiment", self.embodiment, EMBODIMENTS, where)
         if self.task not in TASKS:
             raise unknown_name("task", self.task, TASKS, where)

@@ -2,12 +2,13 @@
 
 Run: ``python models/generate_models.py``.
 
-The files it writes (``legato_gripper.sdf``, ``abstract.urdf``, ``panda.urdf``, ``table.sdf``,
-``stove.sdf``, ``pot.sdf``, ``lid.sdf``) are committed; this script only documents how their
-numbers were made and regenerates them. Masses are spread over a body's shapes in proportion to
-their volume (unless a shape names its own mass), and every inertia is the exact composite of
-the solid primitives (computed with Drake's ``SpatialInertia`` helpers), so it is positive
-definite and physically valid by construction.
+The files it writes (``legato_gripper.sdf``, ``abstract.urdf``, ``panda.urdf``, ``spot.urdf``,
+``google_robot.urdf``, ``gr1.urdf``, ``table.sdf``, ``stove.sdf``, ``pot.sdf``, ``lid.sdf``) are
+committed; this script only documents how their numbers were made and regenerates them.
+Masses are spread over a body's shapes in proportion to their volume (unless a shape names its
+own mass), and every inertia is the exact composite of the solid primitives (computed with
+Drake's ``SpatialInertia`` helpers), so it is positive definite and physically valid by
+construction.
 
 Shapes are tuples ``(kind, dims, xyz, rpy, role, colour, mass)``:
 kind is box (dims = sizes), cyl / cap (dims = radius, length along the shape's z), sph (radius);
@@ -146,6 +147,14 @@ COLOURS = {
     "panda_grey": (0.72, 0.73, 0.75, 1.0),
     "panda_dark": (0.20, 0.20, 0.22, 1.0),
     "marker": (0.90, 0.45, 0.10, 1.0),
+    # Spot, Google Robot, GR-1 (no luma constraint: the robots are not task objects)
+    "spot_yellow": (0.96, 0.78, 0.08, 1.0),
+    "spot_dark": (0.16, 0.16, 0.17, 1.0),
+    "google_white": (0.93, 0.93, 0.91, 1.0),
+    "google_grey": (0.62, 0.63, 0.65, 1.0),
+    "google_dark": (0.15, 0.15, 0.16, 1.0),
+    "gr1_silver": (0.78, 0.79, 0.81, 1.0),
+    "gr1_dark": (0.20, 0.20, 0.22, 1.0),
 }
 
 
@@ -800,6 +809,9 @@ def main() -> None:
         "legato_gripper.sdf": gripper_sdf(),
         "abstract.urdf": abstract_urdf(),
         "panda.urdf": panda_urdf(),
+        "spot.urdf": spot_urdf(),
+        "google_robot.urdf": google_robot_urdf(),
+        "gr1.urdf": gr1_urdf(),
         "table.sdf": table_sdf(),
         "stove.sdf": stove_sdf(),
         "pot.sdf": pot_sdf(),

@@ -15,6 +15,15 @@ from legato_drake.errors import unknown_name
 EMBODIMENTS: dict[str, Embodiment] = {e.name: e for e in (ABSTRACT, PANDA)}
 
 
+def resolve_embodiment(name: str, file: str = "") -> Embodiment:
+    """The embodiment of a scenario: loaded from ``file`` if given, else registered."""
+    if file:
+        from legato_drake.embodiments.from_file import load_embodiment_file
+
+        return load_embodiment_file(file)
+    return get_embodiment(name)
+
+
 def get_embodiment(name: str) -> Embodiment:
     """Returns the registered embodiment called ``name`` (ConfigError lists valid names)."""
     try:
@@ -24,4 +33,4 @@ def get_embodiment(name: str) -> Embodiment:
 
 
 __all__ = ["EMBODIMENTS", "Embodiment", "IkSettings", "RobotHandles", "add_embodiment",
-           "get_embodiment"]
+           "get_embodiment", "resolve_embodiment"]

@@ -11,16 +11,20 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.math import RigidTransform
+from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import (
+    FixedOffsetFrame,
     Frame,
     Joint,
     JointActuator,
     JointActuatorIndex,
     ModelInstanceIndex,
     PdControllerGains,
+    PrismaticJoint,
+    RevoluteJoint,
+    SpatialInertia,
 )
 
 from legato_drake import conventions
@@ -69,6 +73,16 @@ class Embodiment:
     """(kp, kd) of each actuated joint's PD, run by the plant at the physics rate."""
     ik: IkSettings = field(default_factory=IkSettings)
     description: str = ""
+    base_type: str = "fixed"
+    """``fixed``: ``base_frame`` is welded at ``base_pose``. ``planar`` (x, y, yaw) or
+    ``floating`` (x, y, z, roll, pitch, yaw): actuated virtual joints named ``base_<axis>``
+    carry ``base_frame``, with home at ``base_pose`` and ranges ``base_range`` around it.
+    (A model may also carry its own virtual base joints and use ``fixed``.)"""
+    base_range: dict[str, float] = field(default_factory=dict)
+    """Half-range of each virtual base joint around its home (m or rad), by axis name."""
+    base_gains: tuple[tuple[float, float], tuple[float, float]] = ((20000.0, 2000.0),
+                                                                   (5000.0, 500.0))
+    """(kp, kd) of the virtual base joints: translational, then rotational."""
 
 
 @dataclass
@@ -85,8 +99,8 @@ class RobotHandles:
     @property
     def home_positions(self) -> np.ndarray:
         """Home posture of ``controlled_joints`` in port order."""
-        return np.array([self.embodiment.home.get(j.name(), 0.0)
-                         for j in self.controlled_joints])
+        home = {**self.embodiment.home, **base_home(self.embodiment)}
+        return np.array([home.get(j.name(), 0.0) for j in self.controlled_joints])
 
 
 def load_gripper(plant: MultibodyPlant, parser: Parser) -> ModelInstanceIndex:
@@ -108,7 +122,10 @@ def add_embodiment(plant: MultibodyPlant, parser: Parser, emb: Embodiment) -> Ro
                           "expected exactly one")
     (robot,) = models
     base = _frame(plant, emb.base_frame, robot, emb, "base_frame")
-    plant.WeldFrames(plant.world_frame(), base, emb.base_pose)
+    if emb.base_type == "fixed":
+        plant.WeldFrames(plant.world_frame(), base, emb.base_pose)
+    else:
+        plant.WeldFrames(_add_virtual_base(plant, robot, emb), base, RigidTransform())
     gripper = load_gripper(plant, parser)
     mount = _frame(plant, emb.mount_frame, robot, emb, "mount_frame")
     plant.WeldFrames(mount, plant.GetFrameByName(conventions.GRIPPER_BASE_BODY, gripper),
@@ -119,15 +136,18 @@ def add_embodiment(plant: MultibodyPlant, parser: Parser, emb: Embodiment) -> Ro
         raise ConfigError(f"embodiment {emb.name!r}: {emb.model} has no actuated joints "
                           "(add <transmission> elements or SDF actuators)")
     names = {j.name() for j in joints}
+    virtual = set(base_home(emb))
     for kind, table in (("home", emb.home), ("pd_gains", emb.pd_gains)):
         unknown = set(table) - names
         if unknown:
             raise ConfigError(f"embodiment {emb.name!r}: {kind} names unknown joint(s) "
                               f"{sorted(unknown)}; actuated joints: {sorted(names)}")
-    missing = names - set(emb.pd_gains)
+    missing = names - set(emb.pd_gains) - virtual
     if missing:
         raise ConfigError(f"embodiment {emb.name!r}: pd_gains lacks joint(s) {sorted(missing)}")
     for joint in joints:
+        if joint.name() in virtual:
+            continue
         kp, kd = emb.pd_gains[joint.name()]
         _actuator_of(plant, joint).set_controller_gains(PdControllerGains(p=kp, d=kd))
         if joint.name() in emb.home:
@@ -138,6 +158,57 @@ def add_embodiment(plant: MultibodyPlant, parser: Parser, emb: Embodiment) -> Ro
                           f"{sorted(posture)}; actuated joints: {sorted(names)}")
     tcp = plant.GetFrameByName(conventions.GRIPPER_TCP_FRAME, gripper)
     return RobotHandles(emb, robot, gripper, tcp, joints)
+
+
+BASE_AXES = {"planar": ("x", "y", "yaw"), "floating": ("x", "y", "z", "roll", "pitch", "yaw")}
+"""Virtual base joints of each base type, in chain order from the world."""
+_UNIT = {"x": [1.0, 0, 0], "y": [0, 1.0, 0], "z": [0, 0, 1.0],
+         "roll": [1.0, 0, 0], "pitch": [0, 1.0, 0], "yaw": [0, 0, 1.0]}
+
+
+def base_home(emb: Embodiment) -> dict[str, float]:
+    """Home positions of the virtual base joints: the components of ``base_pose``."""
+    xyz = emb.base_pose.translation()
+    rpy = RollPitchYaw(emb.base_pose.rotation()).vector()
+    values = dict(zip(("x", "y", "z", "roll", "pitch", "yaw"), [*xyz, *rpy], strict=True))
+    return {f"base_{axis}": values[axis] for axis in BASE_AXES.get(emb.base_type, ())}
+
+
+def _add_virtual_base(plant: MultibodyPlant, robot: ModelInstanceIndex,
+                      emb: Embodiment) -> Frame:
+    """Adds the actuated x/y/(z)/(roll/pitch)/yaw chain of a planar or floating base and
+    returns the frame that carries the robot's base frame."""
+    if emb.base_type not in BASE_AXES:
+        raise ConfigError(f"embodiment {emb.name!r}: base_type {emb.base_type!r}; valid "
+                          f"values: fixed, {', '.join(BASE_AXES)}")
+    axes = BASE_AXES[emb.base_type]
+    parent = plant.world_frame()
+    if emb.base_type == "planar":  # height, roll and pitch of base_pose stay fixed
+        rpy = RollPitchYaw(emb.base_pose.rotation())
+        parent = plant.AddFrame(FixedOffsetFrame(
+            "base_plane", parent, RigidTransform(RollPitchYaw(rpy.roll_angle(),
+                                                              rpy.pitch_angle(), 0.0),
+                                                 [0.0, 0.0, emb.base_pose.translation()[2]]),
+            robot))
+    home = base_home(emb)
+    for axis in axes:
+        name = f"base_{axis}"
+        body = plant.AddRigidBody(f"{name}_link", robot,
+                                  SpatialInertia.SolidSphereWithMass(0.01, 0.01))
+        half = emb.base_range.get(axis, np.pi if axis == "yaw" else 0.1)
+        low, high = home[name] - half, home[name] + half
+        if axis in ("x", "y", "z"):
+            joint = PrismaticJoint(name, parent, body.body_frame(), _UNIT[axis], low, high)
+            gains, effort = emb.base_gains[0], 1e5
+        else:
+            joint = RevoluteJoint(name, parent, body.body_frame(), _UNIT[axis], low, high)
+            gains, effort = emb.base_gains[1], 1e5
+        joint = plant.AddJoint(joint)
+        actuator = plant.AddJointActuator(f"{name}_motor", joint, effort)
+        actuator.set_controller_gains(PdControllerGains(p=gains[0], d=gains[1]))
+        joint.set_default_positions([home[name]])
+        parent = body.body_frame()
+    return parent
 
 
 def actuators_of(plant: MultibodyPlant, instance: ModelInstanceIndex) -> list[JointActuator]:
