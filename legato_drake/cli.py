@@ -122,6 +122,21 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0 if all(r["success"] for r in results) else 1
 
 
+def cmd_retarget_benchmark(args: argparse.Namespace) -> int:
+    """Replays Abstract demonstrations open-loop on every embodiment and prints a table."""
+    from legato_drake.embodiments import EMBODIMENTS
+    from legato_drake.report import format_table
+    from legato_drake.retarget import SUMMARY_HEADERS, run_benchmark, summarize, write_results
+    from legato_drake.tasks import TASKS
+
+    rows = run_benchmark(_names(args.embodiments, EMBODIMENTS, "embodiment"),
+                         _names(args.tasks, TASKS, "task"), args.seeds, args.workers)
+    print(format_table(SUMMARY_HEADERS, summarize(rows)))
+    for path in write_results(rows, Path(args.out)):
+        log.info("wrote %s", path)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``legato-drake``."""
     parser = argparse.ArgumentParser(
@@ -152,6 +167,20 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--no-camera", action="store_true", help="do not render the cameras")
     demo.add_argument("--no-replay", action="store_true", help="do not write HTML replays")
     demo.set_defaults(func=cmd_demo)
+
+    retarget = verbs.add_parser(
+        "retarget-benchmark", help="replay Abstract demonstrations open-loop on every robot",
+        description="Records the scripted demonstrator's gripper trajectory on Abstract for "
+                    "each seed, replays it open-loop on each embodiment in the same scene, and "
+                    "prints tracking error, joint-limit margin, IK solve time, speed and "
+                    "success per embodiment and task; writes OUT/retarget.csv and .json.")
+    retarget.add_argument("--embodiments", default="all", help="names or 'all' (default)")
+    retarget.add_argument("--tasks", default="lid", help="names or 'all' (default: lid)")
+    retarget.add_argument("--seeds", type=_seeds, default=_seeds("0-4"),
+                          help="N, A-B or A,B,C (default: 0-4)")
+    retarget.add_argument("--workers", type=int, default=1, help="worker processes")
+    retarget.add_argument("--out", default="results/retarget", help="folder for CSV and JSON")
+    retarget.set_defaults(func=cmd_retarget_benchmark)
     return parser
 
 

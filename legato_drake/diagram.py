@@ -42,7 +42,7 @@ from legato_drake.scenario import Scenario
 from legato_drake.systems.gravity_compensation import GravityCompensation
 from legato_drake.systems.gripper_actuation import GripperActuation
 from legato_drake.systems.render_mirror import add_render_scene
-from legato_drake.systems.scripted_demonstrator import ScriptedDemonstrator
+from legato_drake.systems.scripted_demonstrator import Script, ScriptedDemonstrator
 from legato_drake.systems.stereo_camera import RENDERER_NAME, StereoCamera, StereoRig
 from legato_drake.systems.success_monitor import SuccessMonitor
 from legato_drake.systems.target_integrator import GripperTargetIntegrator
@@ -99,8 +99,11 @@ def stereo_rig(plant: MultibodyPlant, robot: RobotHandles, scenario: Scenario) -
                      fov_y=float(np.radians(scenario.camera.fov_y_deg)))
 
 
-def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None) -> LegatoDiagram:
-    """Builds the closed-loop diagram of ``scenario``; with ``meshcat``, adds a visualizer."""
+def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
+                  script: Script | None = None) -> LegatoDiagram:
+    """Builds the closed-loop diagram of ``scenario``; with ``meshcat``, adds a visualizer.
+    With ``script``, the demonstrator plays that script instead of planning its own (e.g. a
+    demonstration recorded on another embodiment, replayed open-loop)."""
     scenario.validate()
     builder = DiagramBuilder()
     plant, scene_graph, robot, task = build_plant(scenario, builder)
@@ -108,7 +111,7 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None) -> LegatoD
     state = plant.get_state_output_port()
 
     controller = builder.AddNamedSystem(
-        "scripted_demonstrator", ScriptedDemonstrator(plant, task, scenario.seed))
+        "scripted_demonstrator", ScriptedDemonstrator(plant, task, scenario.seed, script))
     builder.Connect(state, controller.get_plant_state_input_port())
     split = builder.AddNamedSystem("action_split", Demultiplexer([6, 1]))
     builder.Connect(controller.GetOutputPort("action"), split.get_input_port())
@@ -136,7 +139,7 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None) -> LegatoD
 
     success = builder.AddNamedSystem("success_monitor", SuccessMonitor(plant, task))
     builder.Connect(state, success.get_plant_state_input_port())
-    tracking = builder.AddNamedSystem("tracking_monitor", TrackingMonitor(plant, robot.tcp_frame))
+    tracking = builder.AddNamedSystem("tracking_monitor", TrackingMonitor(plant, robot))
     builder.Connect(integrator.GetOutputPort("X_WG_target"),
                     tracking.GetInputPort("X_WG_target"))
     builder.Connect(state, tracking.GetInputPort("plant_state"))

@@ -68,7 +68,7 @@ def test_gravity_compensation_output_matches_the_plant(panda_plant):
 
 def test_tracking_monitor_measures_the_offset(panda_plant):
     plant, _, robot, _ = panda_plant
-    system = TrackingMonitor(plant, robot.tcp_frame, t_start=0.0)
+    system = TrackingMonitor(plant, robot, t_start=0.0)
     context = system.CreateDefaultContext()
     plant_context = plant.CreateDefaultContext()
     X = robot.tcp_frame.CalcPoseInWorld(plant_context)
@@ -81,3 +81,8 @@ def test_tracking_monitor_measures_the_offset(panda_plant):
     assert stats.samples == 10
     assert stats.rms_mm == pytest.approx(5.0) and stats.max_mm == pytest.approx(5.0)
     assert stats.rms_deg == pytest.approx(0.0, abs=1e-6)
+    q = robot.home_positions
+    limits = [(j.position_lower_limits()[0], j.position_upper_limits()[0])
+              for j in robot.controlled_joints]
+    expected = min(min(v - lo, hi - v) for v, (lo, hi) in zip(q, limits, strict=True))
+    assert stats.min_limit_margin == pytest.approx(expected)

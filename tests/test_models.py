@@ -31,6 +31,9 @@ MODEL_FILES = (
     "legato_gripper.sdf",
     "abstract.urdf",
     "panda.urdf",
+    "spot.urdf",
+    "google_robot.urdf",
+    "gr1.urdf",
     "table.sdf",
     "stove.sdf",
     "pot.sdf",
@@ -54,9 +57,10 @@ def models_dir() -> Path:
 
 
 class Loaded:
-    """A finalized plant holding one model (welded to the world by `weld`, if given)."""
+    """A finalized plant holding one model (`weld` welded to the world at `X_weld`, if given)."""
 
-    def __init__(self, models_dir: Path, filename: str, weld: str | None = None):
+    def __init__(self, models_dir: Path, filename: str, weld: str | None = None,
+                 X_weld: RigidTransform | None = None):
         builder = DiagramBuilder()
         self.plant, self.scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.002)
         parser = Parser(self.plant)
@@ -65,7 +69,9 @@ class Loaded:
         (self.model,) = parser.AddModels(url=f"package://legato_drake/{filename}")
         if weld is not None:
             self.plant.WeldFrames(
-                self.plant.world_frame(), self.plant.GetFrameByName(weld, self.model)
+                self.plant.world_frame(),
+                self.plant.GetFrameByName(weld, self.model),
+                RigidTransform() if X_weld is None else X_weld,
             )
         self.plant.Finalize()
         self.context = self.plant.CreateDefaultContext()
@@ -178,6 +184,9 @@ def test_generator_reproduces_the_files(models_dir):
         "legato_gripper.sdf": module.gripper_sdf(),
         "abstract.urdf": module.abstract_urdf(),
         "panda.urdf": module.panda_urdf(),
+        "spot.urdf": module.spot_urdf(),
+        "google_robot.urdf": module.google_robot_urdf(),
+        "gr1.urdf": module.gr1_urdf(),
         "table.sdf": module.table_sdf(),
         "stove.sdf": module.stove_sdf(),
         "pot.sdf": module.pot_sdf(),

@@ -32,6 +32,19 @@ from legato_drake.errors import ConfigError
 
 
 @dataclass(frozen=True)
+class OrientationTask:
+    """A secondary IK task: keep a frame of the robot at its home orientation (e.g. GR-1's
+    head level and looking forward while the waist moves)."""
+
+    frame: str
+    """Frame of the robot model."""
+    gain: float = 20.0
+    """Gain (1/s) on its orientation error."""
+    weight: float = 0.05
+    """Weight relative to the gripper tracking task (soft priority)."""
+
+
+@dataclass(frozen=True)
 class IkSettings:
     """Gains and limits of the whole-body differential IK (SPEC §5)."""
 
@@ -49,6 +62,10 @@ class IkSettings:
     """Joint acceleration bound (rad/s^2 or m/s^2) between two IK steps."""
     joint_speed_limits: dict[str, float] = field(default_factory=dict)
     """Per-joint speed bounds that override ``max_joint_speed``."""
+    joint_acceleration_limits: dict[str, float] = field(default_factory=dict)
+    """Per-joint acceleration bounds that override ``max_joint_acceleration``."""
+    orientation_tasks: tuple[OrientationTask, ...] = ()
+    """Secondary orientation tasks."""
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,8 @@ Example (paths are relative to the YAML file; every angle in degrees)::
     home: {shoulder: 0.0, elbow: 1.2}  # radians or metres; unnamed joints home at 0
     pd_gains: {default: [400, 40], wrist: [100, 10]}  # [kp, kd] per joint
     ik: {tracking_gain: 24, posture_gain: 2, posture_joints: [shoulder],
-         max_joint_speed: 2.5, max_joint_acceleration: 100}
+         max_joint_speed: 2.5, max_joint_acceleration: 100,
+         orientation_tasks: [{frame: head, gain: 20, weight: 0.05}]}   # optional
 
 The gripper frame's +x is its approach direction and +z its "up" (camera side); ``mount``
 must put the gripper there on your robot. Loading checks the whole definition against the
@@ -35,6 +36,7 @@ from legato_drake.embodiments.base import (
     BASE_AXES,
     Embodiment,
     IkSettings,
+    OrientationTask,
     actuators_of,
     add_embodiment,
 )
@@ -45,7 +47,8 @@ REQUIRED = ("name", "model", "base_frame", "mount_frame", "pd_gains")
 OPTIONAL = ("base_type", "base_pose", "base_range", "base_gains", "mount", "home", "ik",
             "description")
 IK_FIELDS = ("tracking_gain", "posture_gain", "posture_joints", "posture_weight",
-             "max_joint_speed", "max_joint_acceleration", "joint_speed_limits")
+             "max_joint_speed", "max_joint_acceleration", "joint_speed_limits",
+             "joint_acceleration_limits", "orientation_tasks")
 
 
 def load_embodiment_file(path: str | Path) -> Embodiment:
@@ -114,6 +117,13 @@ def _parse(raw: object, folder: Path) -> Embodiment:
                           f"{', '.join(IK_FIELDS)}")
     if "posture_joints" in ik_raw:
         ik_raw["posture_joints"] = tuple(ik_raw["posture_joints"])
+    if "orientation_tasks" in ik_raw:
+        tasks = ik_raw["orientation_tasks"]
+        try:
+            ik_raw["orientation_tasks"] = tuple(OrientationTask(**t) for t in tasks)
+        except TypeError:
+            raise ConfigError("ik.orientation_tasks: expected a list of {frame: NAME, gain: "
+                              f"G, weight: W}}, got {tasks!r}") from None
     emb = Embodiment(
         name=str(raw["name"]), model=model, base_frame=str(raw["base_frame"]),
         base_pose=_pose(raw.get("base_pose"), "base_pose"),

@@ -74,7 +74,8 @@ class ScriptedDemonstrator(LeafSystem):
     """Outputs exactly what a policy outputs, from the task's privileged state.
 
     At the first step after ``t_start`` it asks the task for a waypoint plan (randomised by
-    ``seed``) and samples it into one commanded TCP pose per step; every ``period`` it then
+    ``seed``) and samples it into one commanded TCP pose per step (or, given a ``script``,
+    plays that one: e.g. a demonstration recorded on another embodiment); every ``period`` it then
     outputs the delta ``X_{k-1}^-1 X_k`` between consecutive commanded poses (in the previous
     commanded frame) and the grasp command. After the last step it outputs zero deltas and
     keeps the last grasp, and ``done`` turns to 1.
@@ -90,6 +91,7 @@ class ScriptedDemonstrator(LeafSystem):
     """
 
     def __init__(self, plant: MultibodyPlant, task: Task, seed: int,
+                 script: Script | None = None,
                  X_start: RigidTransform = conventions.START_POSE,
                  t_start: float = conventions.HOMING_DURATION,
                  period: float = conventions.POLICY_PERIOD,
@@ -101,7 +103,7 @@ class ScriptedDemonstrator(LeafSystem):
         self._plant_state = self.DeclareVectorInputPort(
             "plant_state", plant.num_positions() + plant.num_velocities())
         self._progress = self.DeclareAbstractState(
-            AbstractValue.Make(_Progress(None, 0, (0.0,) * 7)))
+            AbstractValue.Make(_Progress(script, 0, (0.0,) * 7)))
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, t_start + offset, self._step)
         self.DeclareVectorOutputPort("action", 7, self._calc_action, {self.all_state_ticket()})
         self.DeclareVectorOutputPort("done", 1, self._calc_done, {self.all_state_ticket()})

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,6 +42,9 @@ class WholeBodyIK(LeafSystem):
     of ``J``, ``v_posture = k (q_home - q)`` on the posture joints, and ``lb, ub`` the tightest
     of the position limits (distance / dt), the speed limits, the braking distance
     ``sqrt(2 a_max |distance|)``, and the acceleration limit around the previous velocity.
+    Secondary orientation tasks (``IkSettings.orientation_tasks``) add weighted terms
+    ``w |J_w v - k rotvec(R_home R^T)|^2`` that hold a frame (e.g. a head) at its home
+    orientation.
     The commanded joint positions are integrated (``q += v dt``) and clamped to the limits, so
     they never leave them. A NaN or infinite target, or a solver failure, makes the robot
     decelerate within its acceleration limit and hold.
@@ -73,13 +77,23 @@ class WholeBodyIK(LeafSystem):
                           for j in joints])
         plant_speed = np.array([j.velocity_upper_limits()[0] for j in joints])
         self._v_max = np.minimum(speed, plant_speed)
-        self._a_max = settings.max_joint_acceleration
+        self._a_max = np.array([settings.joint_acceleration_limits.get(
+            j.name(), settings.max_joint_acceleration) for j in joints])
         self._q_home = robot.home_positions
         names = set(settings.posture_joints) or {j.name() for j in joints}
         self._posture_mask = np.array([j.name() in names for j in joints], dtype=float)
 
         self._plant_context = plant.CreateDefaultContext()
         self._q_full = plant.GetPositions(self._plant_context).copy()
+        self._orientation_tasks = []
+        for task in settings.orientation_tasks:
+            frame = plant.GetFrameByName(task.frame, robot.robot)
+            self._set_q(self._q_home)
+            R_home = frame.CalcPoseInWorld(self._plant_context).rotation()
+            self._orientation_tasks.append((frame, R_home, task.gain, task.weight))
+        self.solve_times: list[float] | None = None
+        """Set to a list to profile: the wall time of every solve is appended (benchmarks
+        only; it is not part of the context and changes nothing the system computes)."""
 
         self._prog = MathematicalProgram()
         v = self._prog.NewContinuousVariables(n, "v")
@@ -159,6 +173,14 @@ class WholeBodyIK(LeafSystem):
         w = self._settings.posture_weight
         H = J.T @ J + w * P.T @ P + 1e-6 * np.eye(self._n)
         g = J.T @ V + w * P.T @ P @ v_posture
+        for frame, R_home, gain, weight in self._orientation_tasks:
+            J_w = self._plant.CalcJacobianSpatialVelocity(
+                self._plant_context, JacobianWrtVariable.kV, frame, np.zeros(3),
+                self._plant.world_frame(), self._plant.world_frame())[:3, self._v_index]
+            R = frame.CalcPoseInWorld(self._plant_context).rotation()
+            w_des = gain * rotation_log(R_home @ R.inverse())
+            H += weight * J_w.T @ J_w
+            g += weight * J_w.T @ w_des
 
         v = np.linalg.solve(H, g)
         if np.all(v >= lb) and np.all(v <= ub):
@@ -178,7 +200,11 @@ class WholeBodyIK(LeafSystem):
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
         x = context.get_discrete_state(self._state).get_value()
         q, v_prev = x[:self._n], x[self._n:]
-        step = self.solve(q, v_prev, self._X_input.Eval(context), self._V_input.Eval(context))
+        X_des, V_ff = self._X_input.Eval(context), self._V_input.Eval(context)
+        start = time.perf_counter()
+        step = self.solve(q, v_prev, X_des, V_ff)
+        if self.solve_times is not None:
+            self.solve_times.append(time.perf_counter() - start)
         q_next = np.clip(q + step.v * self._dt, self._q_min, self._q_max)
         discrete_state.set_value(self._state, np.concatenate([q_next, step.v]))
 
