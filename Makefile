@@ -11,7 +11,7 @@ $(STAMP): pyproject.toml scripts/setup.sh
 
 setup: $(STAMP)
 
-demo: $(STAMP)  ## set up, then run the scripted demo on Abstract and Panda (lid task)
+demo: $(STAMP)  ## set up, then run the scripted lid demo on every embodiment
 	$(BIN)/legato-drake demo
 
 test: $(STAMP)  ## set up, then run the whole test suite (ruff, pytest, the notebooks)

@@ -137,6 +137,40 @@ def cmd_retarget_benchmark(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_collect(args: argparse.Namespace) -> int:
+    """Collects a demonstration dataset (``legato_drake.data.collect``) and prints a summary."""
+    from legato_drake.data.collect import collect
+    from legato_drake.report import format_table
+
+    report = collect(task=args.task, embodiment=args.embodiment, episodes=args.episodes,
+                     out=Path(args.out), workers=args.workers,
+                     keep_failures=args.keep_failures, seed0=args.seed0, source=args.source,
+                     camera=not args.no_camera, duration=args.duration,
+                     max_attempts=args.max_attempts)
+    for outcome in report.failed:
+        log.info("failed: %s (seed %d): %s", outcome["key"], outcome["seed"],
+                 outcome["reason"])
+    print(format_table(["dataset", "episodes kept", "asked", "tried", "failed", "minutes"],
+                       [[str(report.out), len(report.kept), report.requested,
+                         len(report.outcomes), len(report.failed),
+                         report.wall_time / 60.0]]))
+    return 0 if len(report.kept) >= report.requested else 1
+
+
+def cmd_inspect(args: argparse.Namespace) -> int:
+    """Prints a dataset's summary and validation; plots one episode."""
+    from legato_drake.data.inspect import format_summary, plot_episode, summarize
+
+    summary = summarize(Path(args.file))
+    print(format_summary(summary))
+    if summary.issues:
+        return 1
+    out = Path(args.out) if args.out else Path(str(args.file) + ".inspect")
+    for path in plot_episode(Path(args.file), args.episode, out):
+        print(f"wrote {path}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``legato-drake``."""
     parser = argparse.ArgumentParser(
@@ -150,9 +184,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Runs the task's scripted demonstrator on each embodiment, writes "
                     "OUT/<embodiment>-<task>-seed<N>.html Meshcat replays and prints success, "
                     "gripper tracking error and speed. Exits 1 if any episode failed.")
-    demo.add_argument("--embodiment", default="abstract,panda",
-                      help="embodiment name, comma-separated names, or 'all' "
-                           "(default: abstract,panda)")
+    demo.add_argument("--embodiment", default="all",
+                      help="embodiment name, comma-separated names, or 'all' (default)")
     demo.add_argument("--embodiment-file", metavar="YAML",
                       help="a robot defined in a YAML file (see README, 'Bring your own "
                            "robot'); replaces --embodiment")
@@ -181,6 +214,45 @@ def build_parser() -> argparse.ArgumentParser:
     retarget.add_argument("--workers", type=int, default=1, help="worker processes")
     retarget.add_argument("--out", default="results/retarget", help="folder for CSV and JSON")
     retarget.set_defaults(func=cmd_retarget_benchmark)
+
+    collect = verbs.add_parser(
+        "collect", help="record a demonstration dataset (robomimic-style HDF5)",
+        description="Records scripted (or, with --source, replayed pose-stream) episodes and "
+                    "writes them to OUT (layout: docs/data_format.md). Only successful "
+                    "episodes are kept unless --keep-failures. Interrupted runs resume: "
+                    "episodes already in OUT.parts/ are skipped. Exits 1 if fewer episodes "
+                    "than asked (or than --source files) were kept.")
+    collect.add_argument("--task", default="lid", help="task name (default: lid)")
+    collect.add_argument("--embodiment", default="abstract",
+                         help="embodiment name (default: abstract)")
+    collect.add_argument("--episodes", type=int, default=150,
+                         help="episodes to keep (default: 150)")
+    collect.add_argument("--out", required=True, help="dataset file, e.g. data/lid.hdf5")
+    collect.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    collect.add_argument("--keep-failures", action="store_true",
+                         help="keep failed episodes too (success is recorded per demo)")
+    collect.add_argument("--seed0", type=int, default=0, help="first seed (default: 0)")
+    collect.add_argument("--source", metavar="PATH",
+                         help="pose-stream file (CSV/NPZ) or folder of them: one replayed "
+                              "episode per file instead of the scripted demonstrator")
+    collect.add_argument("--no-camera", action="store_true",
+                         help="state-only dataset (no images; about twice as fast)")
+    collect.add_argument("--duration", type=float, default=None,
+                         help="seconds per episode after homing (default: the scenario's 40)")
+    collect.add_argument("--max-attempts", type=int, default=None,
+                         help="most seeds to try (default: 3 x episodes + 10)")
+    collect.set_defaults(func=cmd_collect)
+
+    inspect = verbs.add_parser(
+        "inspect", help="summarize and validate a dataset, plot one episode",
+        description="Prints episodes, lengths, success and per-dimension action statistics, "
+                    "validates the layout (shapes, dtypes, NaNs, masks, format version), and "
+                    "writes a strip of stereo frames and a gripper-trajectory plot of one "
+                    "episode. Exits 1 if the dataset is invalid, 2 if it cannot be read.")
+    inspect.add_argument("file", help="dataset file")
+    inspect.add_argument("--episode", type=int, default=0, help="demo index to plot (0)")
+    inspect.add_argument("--out", help="folder for the plots (default: FILE.inspect/)")
+    inspect.set_defaults(func=cmd_inspect)
     return parser
 
 

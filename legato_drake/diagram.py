@@ -10,7 +10,8 @@
                               | joint targets                   finger targets  |
                          MultibodyPlant joint PD (500 Hz) + GravityCompensation <+
                               |
-                         SuccessMonitor, TrackingMonitor, MeshcatVisualizer
+                         SuccessMonitor, TrackingMonitor, MeshcatVisualizer,
+                         EpisodeRecorder (with ``record=True``)
 
 The controller sees the gripper only; the embodiment is known to the IK, the PD and the
 gravity compensation alone.
@@ -39,8 +40,11 @@ from legato_drake import conventions
 from legato_drake.embodiments import RobotHandles, add_embodiment, resolve_embodiment
 from legato_drake.models import add_package
 from legato_drake.scenario import Scenario
+from legato_drake.systems.episode_recorder import EpisodeRecorder
 from legato_drake.systems.gravity_compensation import GravityCompensation
 from legato_drake.systems.gripper_actuation import GripperActuation
+from legato_drake.systems.joint_target_mux import JointTargetMux
+from legato_drake.systems.pose_replay import PoseStreamReplay
 from legato_drake.systems.render_mirror import add_render_scene
 from legato_drake.systems.scripted_demonstrator import Script, ScriptedDemonstrator
 from legato_drake.systems.stereo_camera import RENDERER_NAME, StereoCamera, StereoRig
@@ -61,7 +65,7 @@ class LegatoDiagram:
     scene_graph: SceneGraph
     robot: RobotHandles
     task: Task
-    controller: ScriptedDemonstrator
+    controller: ScriptedDemonstrator | PoseStreamReplay
     integrator: GripperTargetIntegrator
     ik: WholeBodyIK
     gripper: GripperActuation
@@ -72,6 +76,8 @@ class LegatoDiagram:
     meshcat: Meshcat | None
     X_home: RigidTransform
     """TCP pose at the robot's home posture (where homing starts)."""
+    recorder: EpisodeRecorder | None = None
+    """The dataset recorder (only with ``build_diagram(..., record=True)``)."""
 
 
 def build_plant(scenario: Scenario, builder: DiagramBuilder
@@ -100,19 +106,27 @@ def stereo_rig(plant: MultibodyPlant, robot: RobotHandles, scenario: Scenario) -
 
 
 def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
-                  script: Script | None = None) -> LegatoDiagram:
+                  script: Script | None = None, record: bool = False) -> LegatoDiagram:
     """Builds the closed-loop diagram of ``scenario``; with ``meshcat``, adds a visualizer.
     With ``script``, the demonstrator plays that script instead of planning its own (e.g. a
-    demonstration recorded on another embodiment, replayed open-loop)."""
+    demonstration recorded on another embodiment, replayed open-loop). With ``record``, adds
+    an ``EpisodeRecorder`` (one dataset sample per policy step). ``controller: replay`` plays
+    the scenario's ``pose_stream`` instead of the scripted demonstrator."""
     scenario.validate()
     builder = DiagramBuilder()
     plant, scene_graph, robot, task = build_plant(scenario, builder)
     X_home = robot.tcp_frame.CalcPoseInWorld(plant.CreateDefaultContext())
     state = plant.get_state_output_port()
 
-    controller = builder.AddNamedSystem(
-        "scripted_demonstrator", ScriptedDemonstrator(plant, task, scenario.seed, script))
-    builder.Connect(state, controller.get_plant_state_input_port())
+    if scenario.controller == "replay":
+        from legato_drake.data.pose_stream import load_pose_stream
+
+        controller = builder.AddNamedSystem(
+            "pose_stream_replay", PoseStreamReplay(load_pose_stream(scenario.pose_stream)))
+    else:
+        controller = builder.AddNamedSystem(
+            "scripted_demonstrator", ScriptedDemonstrator(plant, task, scenario.seed, script))
+        builder.Connect(state, controller.get_plant_state_input_port())
     split = builder.AddNamedSystem("action_split", Demultiplexer([6, 1]))
     builder.Connect(controller.GetOutputPort("action"), split.get_input_port())
 
@@ -128,12 +142,18 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
                     ik.get_desired_pose_input_port())
     builder.Connect(integrator.GetOutputPort("V_WG_target"),
                     ik.get_desired_velocity_input_port())
-    builder.Connect(ik.GetOutputPort("desired_state"),
-                    plant.get_desired_state_input_port(robot.robot))
-
+    desired = ik.GetOutputPort("desired_state")
+    if robot.embodiment.add_followers is not None:
+        joints, followers = robot.embodiment.add_followers(builder, plant, robot, desired)
+        mux = builder.AddNamedSystem("joint_target_mux", JointTargetMux(
+            robot.actuated_joints, [robot.controlled_joints, joints]))
+        builder.Connect(desired, mux.get_input_port(0))
+        builder.Connect(followers, mux.get_input_port(1))
+        desired = mux.get_output_port()
+    builder.Connect(desired, plant.get_desired_state_input_port(robot.robot))
     gravity = builder.AddNamedSystem("gravity_compensation",
-                                     GravityCompensation(plant, robot.controlled_joints))
-    builder.Connect(ik.GetOutputPort("desired_state"), gravity.get_desired_state_input_port())
+                                     GravityCompensation(plant, robot.actuated_joints))
+    builder.Connect(desired, gravity.get_desired_state_input_port())
     builder.Connect(gravity.GetOutputPort("actuation"),
                     plant.get_actuation_input_port(robot.robot))
 
@@ -154,6 +174,19 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
         builder.Connect(render_scene_graph.get_query_output_port(),
                         camera.get_geometry_query_input_port())
 
+    recorder = None
+    if record:
+        free = [plant.get_body(i) for i in sorted(plant.GetFloatingBaseBodies())]
+        objects = [b for b in free if b.model_instance() not in (robot.robot, robot.gripper)]
+        recorder = builder.AddNamedSystem("episode_recorder", EpisodeRecorder(
+            plant, robot.tcp_frame, images=camera is not None, object_bodies=objects))
+        builder.Connect(controller.GetOutputPort("action"), recorder.get_action_input_port())
+        builder.Connect(integrator.GetOutputPort("X_WG_commanded"),
+                        recorder.get_commanded_pose_input_port())
+        builder.Connect(state, recorder.get_plant_state_input_port())
+        for port in recorder.get_image_input_ports():
+            builder.Connect(camera.GetOutputPort(port.get_name()), port)
+
     visualizer = None
     if meshcat is not None:
         params = MeshcatVisualizerParams(role=Role.kIllustration,
@@ -164,4 +197,4 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
     diagram.set_name(f"legato_{scenario.embodiment}_{scenario.task}")
     return LegatoDiagram(scenario, diagram, plant, scene_graph, robot, task, controller,
                          integrator, ik, gripper, success, tracking, camera, visualizer, meshcat,
-                         X_home)
+                         X_home, recorder=recorder)

@@ -54,6 +54,7 @@ def replay(embodiment: str, task: str, seed: int, script: Script) -> dict:
                 max_mm=result.tracking.max_mm, rms_deg=result.tracking.rms_deg,
                 max_deg=result.tracking.max_deg,
                 min_limit_margin=result.tracking.min_limit_margin,
+                max_foot_drift_mm=result.tracking.max_foot_drift_mm,
                 ik_median_ms=float(np.median(times)), ik_p95_ms=float(np.percentile(times, 95)),
                 real_time_factor=result.real_time_factor)
 
@@ -98,6 +99,7 @@ def summarize(rows: list[dict]) -> list[list]:
                     float(np.mean([r["rms_deg"] for r in group])),
                     max(r["max_deg"] for r in group),
                     min(r["min_limit_margin"] for r in group),
+                    max(r["max_foot_drift_mm"] for r in group),
                     float(np.median([r["ik_median_ms"] for r in group])),
                     max(r["ik_p95_ms"] for r in group),
                     float(np.median([r["real_time_factor"] for r in group]))])
@@ -105,7 +107,8 @@ def summarize(rows: list[dict]) -> list[list]:
 
 
 SUMMARY_HEADERS = ["embodiment", "task", "success", "95% CI %", "rms mm", "max mm",
-                   "rms deg", "max deg", "min limit margin", "ik median ms", "ik p95 ms",
+                   "rms deg", "max deg", "min limit margin", "max foot drift mm",
+                   "ik median ms", "ik p95 ms",
                    "x real time"]
 
 

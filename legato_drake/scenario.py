@@ -4,7 +4,8 @@ Example ``scenario.yaml`` (every field is optional; the defaults are shown)::
 
     embodiment: panda
     task: lid
-    controller: scripted
+    controller: scripted     # or replay (with pose_stream: poses.csv)
+    pose_stream: ""
     seed: 0
     duration: 40.0
     camera: {enabled: true, width: 128, height: 128, fov_y_deg: 120.0}
@@ -21,7 +22,7 @@ from pydrake.common.yaml import yaml_load, yaml_load_typed
 
 from legato_drake.errors import ConfigError, unknown_name
 
-CONTROLLERS = ("scripted",)
+CONTROLLERS = ("scripted", "replay")
 """Names accepted by ``Scenario.controller``."""
 
 
@@ -62,7 +63,11 @@ class Scenario:
     task: str = "lid"
     """Registered task name (``legato_drake.tasks.TASKS``)."""
     controller: str = "scripted"
-    """What produces the 10 Hz actions: ``scripted`` (the task's scripted demonstrator)."""
+    """What produces the 10 Hz actions: ``scripted`` (the task's scripted demonstrator) or
+    ``replay`` (a recorded pose stream, ``pose_stream``)."""
+    pose_stream: str = ""
+    """Recorded 6-DoF gripper pose stream (CSV or NPZ, docs/data_format.md) that
+    ``controller: replay`` plays; required by it."""
     seed: int = 0
     """Seeds the scene randomization and the demonstrator; same seed, same episode."""
     duration: float = 40.0
@@ -88,6 +93,16 @@ class Scenario:
         if self.controller not in CONTROLLERS:
             raise unknown_name("controller", self.controller, CONTROLLERS, where)
         place = f" in {where}" if where else ""
+        if self.controller == "replay" and not self.pose_stream:
+            raise ConfigError(f"pose_stream{place} must name a pose stream file (CSV or NPZ) "
+                              "when controller is 'replay'")
+        if self.pose_stream:
+            from legato_drake.data.pose_stream import load_pose_stream
+
+            try:
+                load_pose_stream(self.pose_stream)
+            except ConfigError as e:
+                raise ConfigError(f"pose_stream{place}: {e}") from None
         if not (math.isfinite(self.duration) and self.duration > 0):
             raise ConfigError(f"duration{place} must be a positive number of seconds, got "
                               f"{self.duration!r}")

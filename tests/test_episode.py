@@ -38,3 +38,12 @@ def test_same_seed_same_episode():
     assert a.metrics == b.metrics and a.tracking == b.tracking
     other = run_episode(scenario.replace(seed=4))
     assert other.metrics != a.metrics
+
+
+@pytest.mark.slow
+def test_spot_feet_stay_put_and_legs_follow_the_body():
+    scenario = Scenario(embodiment="spot", seed=0, duration=6.0)
+    scenario.camera.enabled = False
+    result = run_episode(scenario)
+    assert result.tracking.max_foot_drift_mm < 5.0
+    assert result.tracking.rms_mm < 5.0

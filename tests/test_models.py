@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from pydrake.geometry import Box, Cylinder, Role, Sphere
-from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.parsing import PackageMap, Parser
 from pydrake.multibody.plant import (
     AddMultibodyPlant,
@@ -668,3 +668,339 @@ def test_gripper_pads_hold_the_lid_by_its_handle(models_dir):
     q = plant.GetPositions(context, gripper)
     assert q[0] == pytest.approx(q[1], abs=1e-6)
     assert 0.0085 < q[0] < 0.011
+
+
+# ---------------------------------------------------------------------------- mobile robots
+# Spot, the Google Robot and GR-1: each robot is one model whose actuated joints (virtual base
+# joints included) all carry a "<joint>_motor" transmission, with no world or floating joint.
+
+PI = math.pi
+R = "revolute"
+P = "prismatic"
+SPOT_ARM_HOME = np.array([0.0, -0.66, 0.66, 0.0, 0.0, 0.0]) * PI
+SPOT_ARM = ("arm_sh0", "arm_sh1", "arm_el0", "arm_el1", "arm_wr0", "arm_wr1")
+SPOT_BODY_HOME = (-0.2, 0.0, 0.4, 0.0, 0.0, 0.0)
+GOOGLE_ARM = ("joint_torso", "joint_shoulder", "joint_bicep", "joint_elbow", "joint_forearm",
+              "joint_wrist", "joint_gripper")
+GOOGLE_HOME = np.array([0.0, 0.125, 0.0, 0.625, 0.0, -0.25, 0.5]) * PI
+GR1_ARM = ("r_shoulder_pitch", "r_shoulder_roll", "r_shoulder_yaw", "r_elbow_pitch",
+           "r_wrist_yaw", "r_wrist_roll", "r_wrist_pitch")
+GR1_HOME = np.array([0.0, -0.16, 0.33, -0.16, -0.16, 0.0, 0.0]) * PI
+GR1_PELVIS = RigidTransform([-0.1, 0.0, 0.88])
+TILT = math.radians(25.0)
+
+
+def spot_leg_rows():
+    rows = []
+    for leg, front, side in (("fl", 1, 1), ("fr", 1, -1), ("hl", -1, 1), ("hr", -1, -1)):
+        rows += [
+            (f"{leg}_hip_x", R, "body", f"{leg}_hip", (front * 0.29785, side * 0.055, 0),
+             (0, 0, 0), (1, 0, 0), -0.7854, 0.7854),
+            (f"{leg}_hip_y", R, f"{leg}_hip", f"{leg}_upper_leg", (0, side * 0.110945, 0),
+             (0, 0, 0), (0, 1, 0), -0.8988, 2.2951),
+            (f"{leg}_knee", R, f"{leg}_upper_leg", f"{leg}_lower_leg", (0.025, 0, -0.3205),
+             (0, 0, 0), (0, 1, 0), -2.7929, -0.2471),
+        ]
+    return rows
+
+
+# name, kind, parent, child, xyz, rpy, axis (joint frame), lower, upper
+SPOT_JOINTS = [
+    ("body_x", P, "spot_world_anchor", "body_x_link", (0, 0, 0), (0, 0, 0), (1, 0, 0), -0.3,
+     -0.1),
+    ("body_y", P, "body_x_link", "body_y_link", (0, 0, 0), (0, 0, 0), (0, 1, 0), -0.1, 0.1),
+    ("body_z", P, "body_y_link", "body_z_link", (0, 0, 0), (0, 0, 0), (0, 0, 1), 0.3, 0.5),
+    ("body_roll", R, "body_z_link", "body_roll_link", (0, 0, 0), (0, 0, 0), (1, 0, 0), -PI / 16,
+     PI / 16),
+    ("body_pitch", R, "body_roll_link", "body_pitch_link", (0, 0, 0), (0, 0, 0), (0, 1, 0),
+     -PI / 16, PI / 16),
+    ("body_yaw", R, "body_pitch_link", "body", (0, 0, 0), (0, 0, 0), (0, 0, 1), -PI / 16,
+     PI / 16),
+    *spot_leg_rows(),
+    ("arm_sh0", R, "body", "arm_link_sh0", (0.292, 0, 0.188), (0, 0, 0), (0, 0, 1), -2.618, PI),
+    ("arm_sh1", R, "arm_link_sh0", "arm_link_sh1", (0, 0, 0), (0, 0, 0), (0, 1, 0), -PI,
+     0.5236),
+    ("arm_el0", R, "arm_link_sh1", "arm_link_el0", (0.3385, 0, 0), (0, 0, 0), (0, 1, 0), 0.0,
+     PI),
+    ("arm_el1", R, "arm_link_el0", "arm_link_el1", (0.4033, 0, 0.075), (0, 0, 0), (1, 0, 0),
+     -2.7925, 2.7925),
+    ("arm_wr0", R, "arm_link_el1", "arm_link_wr0", (0, 0, 0), (0, 0, 0), (0, 1, 0), -1.8326,
+     1.8326),
+    ("arm_wr1", R, "arm_link_wr0", "arm_link_wr1", (0, 0, 0), (0, 0, 0), (1, 0, 0), -2.88, 2.88),
+]
+GOOGLE_JOINTS = [
+    ("base_x", P, "gr_world_anchor", "base_x_link", (0, 0, 0), (0, 0, 0), (1, 0, 0), -0.6, 0.0),
+    ("base_y", P, "base_x_link", "base_y_link", (0, 0, 0), (0, 0, 0), (0, 1, 0), -0.2, 0.4),
+    ("base_yaw", R, "base_y_link", "base", (0, 0, 0), (0, 0, 0), (0, 0, 1), -PI, PI),
+    ("joint_torso", R, "base", "link_torso", (0, 0, 0.6565), (0, 0, 0), (0, 0, 1), -4.49, 1.35),
+    ("joint_shoulder", R, "link_torso", "link_shoulder", (0, -0.167289, 0.113), (0, 0, 0),
+     (0, 1, 0), -2.66, 3.18),
+    ("joint_bicep", R, "link_shoulder", "link_bicep", (0, 0.002289, 0.215029), (0, 0, 0),
+     (0, 0, 1), -2.13, 3.71),
+    ("joint_elbow", R, "link_bicep", "link_elbow", (0, -0.064, 0.185036), (0, 0, 0), (0, 1, 0),
+     -2.05, 3.79),
+    ("joint_forearm", R, "link_elbow", "link_forearm", (0, -0.101, 0.0914359), (0, 0, 0),
+     (0, 0, 1), -2.92, 2.92),
+    ("joint_wrist", R, "link_forearm", "link_wrist", (0, -0.00604, 0.2735), (0, 0, 0),
+     (0, 1, 0), -1.79, 1.79),
+    # Upper limit 1.79, not the SPEC's 1.35: the SPEC home 0.5 pi must lie inside.
+    ("joint_gripper", R, "link_wrist", "link_gripper", (0, 0.0060384, 0.10911), (0, 0, 0),
+     (0, 0, 1), -4.49, 1.79),
+]
+GR1_JOINTS = [
+    ("waist_yaw", R, "pelvis", "waist_yaw_link", (0, 0, 0.0065), (0, 0, 0), (0, 0, 1), -1.05,
+     1.05),
+    ("waist_pitch", R, "waist_yaw_link", "waist_pitch_link", (0, 0, 0.055), (0, 0, 0),
+     (0, 1, 0), -0.52, 1.22),
+    ("waist_roll", R, "waist_pitch_link", "torso", (0, 0, 0.085), (0, 0, 0), (1, 0, 0), -0.7,
+     0.7),
+    ("r_shoulder_pitch", R, "torso", "r_upper_arm_pitch", (0, -0.12664, 0.21725), (-TILT, 0, 0),
+     (0, 1, 0), -2.79, 1.92),
+    ("r_shoulder_roll", R, "r_upper_arm_pitch", "r_upper_arm_roll", (0, -0.067, 0), (TILT, 0, 0),
+     (1, 0, 0), -3.27, 0.57),
+    ("r_shoulder_yaw", R, "r_upper_arm_roll", "r_upper_arm_yaw", (0, -0.04, -0.0575), (0, 0, 0),
+     (0, 0, 1), -2.97, 2.97),
+    ("r_elbow_pitch", R, "r_upper_arm_yaw", "r_lower_arm_pitch", (0, 0, -0.18853), (0, 0, 0),
+     (0, 1, 0), -2.27, 2.27),
+    ("r_wrist_yaw", R, "r_lower_arm_pitch", "r_hand_yaw", (0, 0, -0.0405), (0, 0, 0), (0, 0, 1),
+     -2.97, 2.97),
+    ("r_wrist_roll", R, "r_hand_yaw", "r_hand_roll", (0, 0, -0.20153), (0, 0, 0), (1, 0, 0),
+     -0.61, 0.61),
+    ("r_wrist_pitch", R, "r_hand_roll", "r_hand_pitch", (0, 0, 0), (0, 0, 0), (0, 1, 0), -0.61,
+     0.61),
+    ("head_yaw", R, "torso", "head_yaw_link", (0, 0, 0.34453), (0, 0, 0), (0, 0, 1), -2.71,
+     2.71),
+    ("head_pitch", R, "head_yaw_link", "head_pitch_link", (0, 0, 0), (0, 0, 0), (0, 1, 0), -0.5,
+     0.5),
+    ("head_roll", R, "head_pitch_link", "head", (0, 0, 0), (0, 0, 0), (1, 0, 0), -0.5, 0.5),
+]
+ROBOTS = {  # file: (weld frame, weld pose, joint table, tool frame, tool parent, tool offset)
+    "spot.urdf": ("spot_world_anchor", RigidTransform(), SPOT_JOINTS, "arm_tool", "arm_link_wr1",
+                  (0.2, 0, -0.03)),
+    "google_robot.urdf": ("gr_world_anchor", RigidTransform(), GOOGLE_JOINTS, "link_tool",
+                          "link_gripper", (0, 0, 0.1)),
+    "gr1.urdf": ("pelvis", GR1_PELVIS, GR1_JOINTS, "r_hand_tool", "r_hand_pitch", (0, 0, -0.1)),
+}
+
+
+@pytest.fixture(scope="module")
+def robots(models_dir) -> dict[str, Loaded]:
+    return {name: Loaded(models_dir, name, weld=weld, X_weld=X)
+            for name, (weld, X, *_) in ROBOTS.items()}
+
+
+def set_joint_positions(loaded: Loaded, positions: dict[str, float]) -> None:
+    """Sets the named single-DoF joints (the others keep their values)."""
+    q = loaded.plant.GetPositions(loaded.context)
+    for name, value in positions.items():
+        q[loaded.joint(name).position_start()] = value
+    loaded.plant.SetPositions(loaded.context, q)
+
+
+@pytest.mark.parametrize("filename", list(ROBOTS))
+def test_robot_joint_table(robots, filename):
+    """Every actuated joint: type, parent/child, origin, axis, limits, a `<joint>_motor`."""
+    loaded = robots[filename]
+    table = ROBOTS[filename][2]
+    for name, kind, parent, child, xyz, rpy, axis, lower, upper in table:
+        joint = loaded.joint(name)
+        assert isinstance(joint, RevoluteJoint if kind == R else PrismaticJoint), name
+        assert joint.parent_body().name() == parent, name
+        assert joint.child_body().name() == child, name
+        X_PF = joint.frame_on_parent().GetFixedPoseInBodyFrame()
+        np.testing.assert_allclose(X_PF.translation(), xyz, atol=1e-12, err_msg=name)
+        np.testing.assert_allclose(X_PF.rotation().matrix(),
+                                   RotationMatrix(RollPitchYaw(rpy)).matrix(), atol=1e-12)
+        assert joint.frame_on_child().GetFixedPoseInBodyFrame().IsExactlyIdentity(), name
+        local = joint.revolute_axis() if kind == R else joint.translation_axis()
+        np.testing.assert_allclose(local, axis, atol=1e-12, err_msg=name)
+        assert joint.position_lower_limits()[0] == pytest.approx(lower, abs=1e-12), name
+        assert joint.position_upper_limits()[0] == pytest.approx(upper, abs=1e-12), name
+        actuator = loaded.plant.GetJointActuatorByName(f"{name}_motor", loaded.model)
+        assert actuator.joint().name() == name
+        assert actuator.effort_limit() >= 30.0, name
+    # Nothing else moves: exactly one actuator per degree of freedom, no floating body.
+    assert sorted(loaded.actuator_names()) == sorted(f"{row[0]}_motor" for row in table)
+    assert loaded.plant.num_positions() == loaded.plant.num_velocities() == len(table)
+    assert not loaded.plant.GetFloatingBaseBodies()
+
+
+@pytest.mark.parametrize("filename", list(ROBOTS))
+def test_robot_tool_frame_and_self_collision_filter(robots, filename):
+    loaded = robots[filename]
+    *_, tool, parent, offset = ROBOTS[filename]
+    X = loaded.pose(tool, parent)
+    np.testing.assert_allclose(X.translation(), offset, atol=1e-12)
+    np.testing.assert_allclose(X.rotation().matrix(), np.eye(3), atol=1e-12)
+    weld = "joint_tool" if tool == "link_tool" else f"{tool}_joint"
+    assert isinstance(loaded.joint(weld), WeldJoint)
+    assert loaded.joint(weld).child_body().name() == tool
+    ids = [g for body in loaded.bodies() for g in loaded.plant.GetCollisionGeometriesForBody(body)]
+    assert len(ids) >= 8
+    for i, a in enumerate(ids):
+        for b in ids[i + 1:]:
+            assert loaded.inspector.CollisionFiltered(a, b)
+
+
+# ------------------------------------------------------------------ spot
+
+
+def test_spot_body_pose_is_absolute(robots):
+    """The six body joints' positions are the body frame's world pose, R = Rx Ry Rz."""
+    spot = robots["spot.urdf"]
+    q = (-0.25, 0.07, 0.33, 0.1, -0.15, 0.18)
+    set_joint_positions(spot, dict(zip([row[0] for row in SPOT_JOINTS[:6]], q, strict=True)))
+    X = spot.plant.GetBodyByName("body").EvalPoseInWorld(spot.context)
+    np.testing.assert_allclose(X.translation(), q[:3], atol=1e-12)
+    expected = (RotationMatrix.MakeXRotation(q[3]) @ RotationMatrix.MakeYRotation(q[4])
+                @ RotationMatrix.MakeZRotation(q[5]))
+    np.testing.assert_allclose(X.rotation().matrix(), expected.matrix(), atol=1e-12)
+
+
+def test_spot_masses_and_geometry(robots):
+    spot = robots["spot.urdf"]
+    plant = spot.plant
+    assert plant.GetModelInstanceName(spot.model) == "spot"
+    body = plant.GetBodyByName("body", spot.model)
+    assert body.default_mass() == pytest.approx(16.7)
+    (box,) = spot.collisions("body")
+    np.testing.assert_allclose(spot.inspector.GetShape(box).size(), [0.85, 0.24, 0.18])
+    for name in ("spot_world_anchor", "body_x_link", "body_y_link", "body_z_link",
+                 "body_roll_link", "body_pitch_link"):
+        assert plant.GetBodyByName(name, spot.model).default_mass() == pytest.approx(0.01)
+    for leg in ("fl", "fr", "hl", "hr"):
+        assert plant.GetBodyByName(f"{leg}_upper_leg").default_mass() == pytest.approx(1.0)
+        assert plant.GetBodyByName(f"{leg}_lower_leg").default_mass() == pytest.approx(0.5)
+        assert isinstance(spot.joint(f"{leg}_foot_joint"), WeldJoint)
+        np.testing.assert_allclose(spot.pose(f"{leg}_foot", f"{leg}_lower_leg").translation(),
+                                   [0, 0, -0.33], atol=1e-12)
+        (foot,) = spot.collisions(f"{leg}_foot")
+        assert spot.inspector.GetShape(foot).radius() == pytest.approx(0.02)
+        np.testing.assert_allclose(spot.geometry_pose_in_body(foot).translation(), 0, atol=1e-12)
+    arm = sum(plant.GetBodyByName(b).default_mass() for b in (
+        "arm_link_sh0", "arm_link_sh1", "arm_link_el0", "arm_link_el1", "arm_link_wr0",
+        "arm_link_wr1", "arm_tool"))
+    assert 4.0 < arm < 8.0
+    assert plant.CalcTotalMass(spot.context, [spot.model]) == pytest.approx(33.57)
+
+
+def test_spot_home_posture(robots):
+    """Home: body (-0.2, 0, 0.4), arm home, legs standing: feet on z = 0 below the hips,
+    tool frame where the arm's offsets put it (forearm level, pitch 0)."""
+    from legato_drake.systems.spot_legs import LEG_JOINTS, standing_leg_angles
+
+    spot = robots["spot.urdf"]
+    legs = standing_leg_angles()
+    home = {**dict(zip([row[0] for row in SPOT_JOINTS[:6]], SPOT_BODY_HOME, strict=True)),
+            **dict(zip(LEG_JOINTS, legs, strict=True)),
+            **dict(zip(SPOT_ARM, SPOT_ARM_HOME, strict=True))}
+    set_joint_positions(spot, home)
+    q = spot.plant.GetPositions(spot.context)
+    assert np.all(q >= spot.plant.GetPositionLowerLimits())
+    assert np.all(q <= spot.plant.GetPositionUpperLimits())
+    for leg, x, y in (("fl", 1, 1), ("fr", 1, -1), ("hl", -1, 1), ("hr", -1, -1)):
+        foot = spot.frame(f"{leg}_foot").CalcPoseInWorld(spot.context).translation()
+        np.testing.assert_allclose(foot, [-0.2 + x * 0.29785, y * (0.055 + 0.110945), 0.0],
+                                   atol=1e-12)
+    a = -0.66 * PI
+    elbow = np.array([0.092 + 0.3385 * math.cos(a), 0.0, 0.588 - 0.3385 * math.sin(a)])
+    X = spot.frame("arm_tool").CalcPoseInWorld(spot.context)
+    np.testing.assert_allclose(X.translation(), elbow + [0.4033 + 0.2, 0, 0.075 - 0.03],
+                               atol=1e-12)
+    np.testing.assert_allclose(X.rotation().matrix(), np.eye(3), atol=1e-12)
+
+
+# ------------------------------------------------------------------ google robot
+
+
+def test_google_robot_masses_and_base(robots):
+    google = robots["google_robot.urdf"]
+    plant = google.plant
+    assert plant.GetModelInstanceName(google.model) == "google_robot"
+    assert plant.GetBodyByName("base", google.model).default_mass() == pytest.approx(30.0)
+    assert plant.CalcTotalMass(google.context, [google.model]) == pytest.approx(38.59)
+    # Base: about 0.5 m footprint, about 0.6 m tall, clear of the floor.
+    lows, highs = [], []
+    for geometry_id in google.collisions("base"):
+        shape = google.inspector.GetShape(geometry_id)
+        z = google.geometry_pose_in_body(geometry_id).translation()[2]
+        half = shape.length() / 2 if isinstance(shape, Cylinder) else shape.size()[2] / 2
+        lows.append(z - half)
+        highs.append(z + half)
+        if isinstance(shape, Cylinder):
+            assert 0.2 < shape.radius() < 0.3
+    assert 0.0 < min(lows) < 0.05 and 0.55 < max(highs) < 0.6565
+
+
+def test_google_robot_home_and_straight_arm(robots):
+    google = robots["google_robot.urdf"]
+    home = dict(zip(GOOGLE_ARM, GOOGLE_HOME, strict=True))
+    set_joint_positions(google, {"base_x": -0.3, "base_y": 0.1, "base_yaw": 0.0, **home})
+    q = google.plant.GetPositions(google.context)
+    assert np.all(q >= google.plant.GetPositionLowerLimits())
+    assert np.all(q <= google.plant.GetPositionUpperLimits())
+    # Arm straight up (zero angles): the tool lies at the sum of the offsets, rotated by yaw.
+    yaw = 0.7
+    set_joint_positions(google, {"base_x": -0.5, "base_y": 0.3, "base_yaw": yaw,
+                                 **dict.fromkeys(GOOGLE_ARM, 0.0)})
+    offsets = np.array([row[4] for row in GOOGLE_JOINTS[3:]]).sum(axis=0) + [0, 0, 0.1]
+    X = google.frame("link_tool").CalcPoseInWorld(google.context)
+    Rz = RotationMatrix.MakeZRotation(yaw)
+    np.testing.assert_allclose(X.translation(), [-0.5, 0.3, 0] + Rz @ offsets, atol=1e-12)
+    np.testing.assert_allclose(X.rotation().matrix(), Rz.matrix(), atol=1e-12)
+
+
+# ------------------------------------------------------------------ GR-1
+
+
+def test_gr1_masses_and_held_limbs(robots):
+    gr1 = robots["gr1.urdf"]
+    plant = gr1.plant
+    assert plant.GetModelInstanceName(gr1.model) == "gr1"
+    assert 20.0 < plant.CalcTotalMass(gr1.context, [gr1.model]) < 30.0
+    assert plant.CalcTotalMass(gr1.context, [gr1.model]) == pytest.approx(25.32)
+    # pelvis is the root (only the test's weld to the world holds it); no left-arm or leg
+    # joint exists.
+    joints = [plant.get_joint(i) for i in plant.GetJointIndices(gr1.model)]
+    names = [j.name() for j in joints]
+    assert [j.parent_body().name() for j in joints if j.child_body().name() == "pelvis"] == [
+        "world"]
+    assert not [n for n in names if n.startswith("l_") or "hip" in n or "knee" in n]
+    # The held legs are visual only and reach the ground (z = 0 in the world at the weld).
+    pelvis = plant.GetBodyFrameIdOrThrow(plant.GetBodyByName("pelvis").index())
+    lowest = min(
+        gr1.inspector.GetPoseInFrame(g).translation()[2]
+        - gr1.inspector.GetShape(g).size()[2] / 2
+        for g in gr1.inspector.GetGeometries(pelvis, Role.kIllustration)
+        if isinstance(gr1.inspector.GetShape(g), Box)
+    )
+    assert GR1_PELVIS.translation()[2] + lowest == pytest.approx(0.0, abs=1e-12)
+    for geometry_id in gr1.collisions("pelvis"):
+        assert gr1.geometry_pose_in_body(geometry_id).translation()[2] > -0.2
+
+
+def test_gr1_home_arm_tilt_and_head_camera(robots):
+    gr1 = robots["gr1.urdf"]
+    home = dict(zip(GR1_ARM, GR1_HOME, strict=True))
+    set_joint_positions(gr1, home)
+    q = gr1.plant.GetPositions(gr1.context)
+    assert np.all(q >= gr1.plant.GetPositionLowerLimits())
+    assert np.all(q <= gr1.plant.GetPositionUpperLimits())
+    # Zero posture: the -25 deg / +25 deg tilts cancel below the shoulder roll joint.
+    set_joint_positions(gr1, dict.fromkeys(GR1_ARM, 0.0))
+    X = gr1.frame("r_hand_tool").CalcPoseInWorld(gr1.context)
+    torso = GR1_PELVIS.translation() + [0, 0, 0.0065 + 0.055 + 0.085]
+    roll_joint = torso + [0, -0.12664, 0.21725] + RotationMatrix.MakeXRotation(-TILT) @ [
+        0, -0.067, 0]
+    below = [0, -0.04, -0.0575 - 0.18853 - 0.0405 - 0.20153 - 0.1]
+    np.testing.assert_allclose(X.translation(), roll_joint + below, atol=1e-12)
+    np.testing.assert_allclose(X.rotation().matrix(), np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(
+        gr1.pose("r_upper_arm_pitch", "torso").rotation().matrix(),
+        RotationMatrix.MakeXRotation(-TILT).matrix(), atol=1e-12)
+    # The head camera looks along +x (forward) at zero head angles, above the chest.
+    X_cam = gr1.frame("head_camera").CalcPoseInWorld(gr1.context)
+    np.testing.assert_allclose(X_cam.rotation().matrix(), np.eye(3), atol=1e-12)
+    assert 1.4 < X_cam.translation()[2] < 1.6
+    assert gr1.frame("head_camera").body().name() == "head_camera"
+    assert gr1.joint("head_camera_joint").parent_body().name() == "head"

@@ -9,10 +9,14 @@ from legato_drake.embodiments.base import (
     RobotHandles,
     add_embodiment,
 )
+from legato_drake.embodiments.google_robot import GOOGLE_ROBOT
+from legato_drake.embodiments.gr1 import GR1
 from legato_drake.embodiments.panda import PANDA
+from legato_drake.embodiments.spot import SPOT
 from legato_drake.errors import unknown_name
 
-EMBODIMENTS: dict[str, Embodiment] = {e.name: e for e in (ABSTRACT, PANDA)}
+EMBODIMENTS: dict[str, Embodiment] = {
+    e.name: e for e in (ABSTRACT, PANDA, SPOT, GOOGLE_ROBOT, GR1)}
 
 
 def resolve_embodiment(name: str, file: str = "") -> Embodiment:

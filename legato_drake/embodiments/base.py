@@ -8,6 +8,7 @@ only this module, the IK and the PD know the robot.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -64,6 +65,9 @@ class IkSettings:
     """Per-joint speed bounds that override ``max_joint_speed``."""
     joint_acceleration_limits: dict[str, float] = field(default_factory=dict)
     """Per-joint acceleration bounds that override ``max_joint_acceleration``."""
+    joint_position_limits: dict[str, tuple[float, float]] = field(default_factory=dict)
+    """Per-joint position ranges, tighter than the model's (e.g. to keep a mobile base off
+    the table); the model's limits still apply."""
     orientation_tasks: tuple[OrientationTask, ...] = ()
     """Secondary orientation tasks."""
 
@@ -100,6 +104,15 @@ class Embodiment:
     base_gains: tuple[tuple[float, float], tuple[float, float]] = ((20000.0, 2000.0),
                                                                    (5000.0, 500.0))
     """(kp, kd) of the virtual base joints: translational, then rotational."""
+    ik_joints: tuple[str, ...] = ()
+    """The joints the whole-body IK drives; empty means every actuated joint. The others get
+    their targets from ``add_followers`` (e.g. Spot's legs from the body pose)."""
+    add_followers: Callable | None = None
+    """``add_followers(builder, plant, robot, ik_desired_state_port) -> (joints, port)``: adds
+    the systems that set the joints outside ``ik_joints`` and returns them with the output
+    port of their desired state ``[q; v]``."""
+    foot_frames: tuple[str, ...] = ()
+    """Frames that must stay put on the ground (their drift is reported)."""
 
 
 @dataclass
@@ -111,7 +124,9 @@ class RobotHandles:
     gripper: ModelInstanceIndex
     tcp_frame: Frame
     controlled_joints: list[Joint]
-    """The robot's actuated joints, in the order of its desired-state input port."""
+    """The joints the IK drives, in actuator order."""
+    actuated_joints: list[Joint]
+    """Every actuated joint of the robot, in the order of its desired-state input port."""
 
     @property
     def home_positions(self) -> np.ndarray:
@@ -173,8 +188,15 @@ def add_embodiment(plant: MultibodyPlant, parser: Parser, emb: Embodiment) -> Ro
     if posture:
         raise ConfigError(f"embodiment {emb.name!r}: ik.posture_joints names unknown joint(s) "
                           f"{sorted(posture)}; actuated joints: {sorted(names)}")
+    unknown = set(emb.ik_joints) - names
+    if unknown:
+        raise ConfigError(f"embodiment {emb.name!r}: ik_joints names unknown joint(s) "
+                          f"{sorted(unknown)}; actuated joints: {sorted(names)}")
+    for frame in emb.foot_frames:
+        _frame(plant, frame, robot, emb, "foot_frames")
+    controlled = [j for j in joints if not emb.ik_joints or j.name() in emb.ik_joints]
     tcp = plant.GetFrameByName(conventions.GRIPPER_TCP_FRAME, gripper)
-    return RobotHandles(emb, robot, gripper, tcp, joints)
+    return RobotHandles(emb, robot, gripper, tcp, controlled, joints)
 
 
 BASE_AXES = {"planar": ("x", "y", "yaw"), "floating": ("x", "y", "z", "roll", "pitch", "yaw")}

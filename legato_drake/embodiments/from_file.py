@@ -48,7 +48,7 @@ OPTIONAL = ("base_type", "base_pose", "base_range", "base_gains", "mount", "home
             "description")
 IK_FIELDS = ("tracking_gain", "posture_gain", "posture_joints", "posture_weight",
              "max_joint_speed", "max_joint_acceleration", "joint_speed_limits",
-             "joint_acceleration_limits", "orientation_tasks")
+             "joint_acceleration_limits", "joint_position_limits", "orientation_tasks")
 
 
 def load_embodiment_file(path: str | Path) -> Embodiment:

@@ -87,6 +87,10 @@ def body_rotation(roll: float, pitch: float, yaw: float) -> np.ndarray:
     return Rx @ Ry @ Rz
 
 
+_FAR = 10.0
+"""Foot offsets (m) beyond this are scaled down to it (the leg stretches toward them)."""
+
+
 def _wrap(angle: float) -> float:
     """``angle`` wrapped to [-pi, pi)."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
@@ -104,6 +108,11 @@ def single_leg_ik(leg: str, p_BF: np.ndarray,
     side = LEG_SIGNS[leg][1]
     lateral = side * g.hip_y_offset
     d = np.asarray(p_BF, dtype=float) - g.hip_x_position(leg)
+    if not np.all(np.isfinite(d)):
+        d = g.hip_y_position(leg) - g.hip_x_position(leg) + [0.0, 0.0, -0.4]  # stand
+    reach = float(np.max(np.abs(d)))
+    if reach > _FAR:  # far out of reach: same direction, no overflow in the squares below
+        d = d * (_FAR / reach)
 
     # Hip abduction: in the hip-x frame the foot is at (X, lateral, Z), Z < 0; rotating it by
     # hip_x about x gives d. Its y-z part keeps its length: lateral^2 + Z^2 = d_y^2 + d_z^2.
@@ -201,7 +210,8 @@ class SpotLegIK(LeafSystem):
         self._feet, self._geometry, self._period = feet, geometry, float(period)
         self._lower, self._upper = geometry.lower_limits, geometry.upper_limits
         self._input = self.DeclareVectorInputPort("body_desired_state", 12)
-        self._output = self.DeclareVectorOutputPort("leg_desired_state", 24, self._calc)
+        self._output = self.DeclareVectorOutputPort("leg_desired_state", 24, self._calc,
+                                                    {self.all_input_ports_ticket()})
 
     @property
     def foot_positions(self) -> np.ndarray:

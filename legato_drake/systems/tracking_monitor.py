@@ -26,18 +26,21 @@ class TrackingStats:
     max_deg: float
     min_limit_margin: float
     """Smallest distance (rad or m) of any controlled joint from its position limits."""
+    max_foot_drift_mm: float = 0.0
+    """Largest distance of any foot frame from where it stood at home (0 without feet)."""
 
     @classmethod
     def from_vector(cls, x: np.ndarray) -> TrackingStats:
         n = max(int(x[0]), 1)
         return cls(int(x[0]), float(1e3 * np.sqrt(x[1] / n)), float(1e3 * x[3]),
                    float(np.degrees(np.sqrt(x[2] / n))), float(np.degrees(x[4])),
-                   float(x[5]))
+                   float(x[5]), float(1e3 * x[6]))
 
 
 class TrackingMonitor(LeafSystem):
     """Compares the TCP pose with the IK's target every ``period`` from ``t_start`` on, and
-    tracks how close the robot's joints come to their position limits.
+    tracks how close the robot's joints come to their position limits and how far its feet
+    (``Embodiment.foot_frames``) drift from where they stood at home.
 
     Input ports:
         X_WG_target (RigidTransform): the target the IK tracks.
@@ -46,9 +49,9 @@ class TrackingMonitor(LeafSystem):
     Output ports:
         stats (6): [samples, sum of squared position errors (m^2), sum of squared rotation
         errors (rad^2), max position error (m), max rotation error (rad), smallest joint-limit
-        margin (rad or m)].
+        margin (rad or m), max foot drift (m)].
 
-    State: discrete, the same 6 numbers.
+    State: discrete, the same 7 numbers.
     """
 
     def __init__(self, plant: MultibodyPlant, robot: RobotHandles,
@@ -61,13 +64,17 @@ class TrackingMonitor(LeafSystem):
         self._q_min = np.array([j.position_lower_limits()[0] for j in joints])
         self._q_max = np.array([j.position_upper_limits()[0] for j in joints])
         self._plant_context = plant.CreateDefaultContext()
+        self._feet = [plant.GetFrameByName(name, robot.robot)
+                      for name in robot.embodiment.foot_frames]
+        self._feet_home = [f.CalcPoseInWorld(self._plant_context).translation()
+                           for f in self._feet]
         self._target = self.DeclareAbstractInputPort(
             "X_WG_target", AbstractValue.Make(RigidTransform()))
         self._plant_state = self.DeclareVectorInputPort(
             "plant_state", plant.num_positions() + plant.num_velocities())
-        self._state = self.DeclareDiscreteState(np.array([0, 0, 0, 0, 0, np.inf]))
+        self._state = self.DeclareDiscreteState(np.array([0, 0, 0, 0, 0, np.inf, 0]))
         self.DeclarePeriodicDiscreteUpdateEvent(period, t_start, self._accumulate)
-        self.DeclareVectorOutputPort("stats", 6, self._calc, {self.xd_ticket()})
+        self.DeclareVectorOutputPort("stats", 7, self._calc, {self.xd_ticket()})
 
     def _accumulate(self, context: Context, discrete_state: DiscreteValues) -> None:
         q = self._plant_state.Eval(context)[:self._plant.num_positions()]
@@ -76,9 +83,12 @@ class TrackingMonitor(LeafSystem):
         dp, dr = pose_error(X, self._target.Eval(context))
         q_robot = q[self._q_index]
         margin = float(np.min(np.minimum(q_robot - self._q_min, self._q_max - q_robot)))
-        n, sp, sr, mp, mr, mm = context.get_discrete_state(self._state).get_value()
-        discrete_state.set_value(self._state, [n + 1, sp + dp * dp, sr + dr * dr,
-                                               max(mp, dp), max(mr, dr), min(mm, margin)])
+        drift = max((float(np.linalg.norm(f.CalcPoseInWorld(self._plant_context).translation()
+                                          - home))
+                     for f, home in zip(self._feet, self._feet_home, strict=True)), default=0.0)
+        n, sp, sr, mp, mr, mm, md = context.get_discrete_state(self._state).get_value()
+        discrete_state.set_value(self._state, [n + 1, sp + dp * dp, sr + dr * dr, max(mp, dp),
+                                               max(mr, dr), min(mm, margin), max(md, drift)])
 
     def _calc(self, context: Context, output: BasicVector) -> None:
         output.SetFromVector(context.get_discrete_state(self._state).get_value())

@@ -71,8 +71,11 @@ class WholeBodyIK(LeafSystem):
         self._n = n = len(joints)
         self._q_index = np.array([j.position_start() for j in joints])
         self._v_index = np.array([j.velocity_start() for j in joints])
-        self._q_min = np.array([j.position_lower_limits()[0] for j in joints])
-        self._q_max = np.array([j.position_upper_limits()[0] for j in joints])
+        tighter = settings.joint_position_limits
+        self._q_min = np.array([max(j.position_lower_limits()[0],
+                                    tighter.get(j.name(), (-np.inf, np.inf))[0]) for j in joints])
+        self._q_max = np.array([min(j.position_upper_limits()[0],
+                                    tighter.get(j.name(), (-np.inf, np.inf))[1]) for j in joints])
         speed = np.array([settings.joint_speed_limits.get(j.name(), settings.max_joint_speed)
                           for j in joints])
         plant_speed = np.array([j.velocity_upper_limits()[0] for j in joints])

@@ -21,6 +21,9 @@ from legato_drake import conventions
 from legato_drake.tasks.base import SuccessReport, Task, Waypoint, tilt_angle, uniform
 
 TABLE_HEIGHT = 0.70
+TABLE_CENTER_X = 0.95
+"""The 1.3 m table spans x from 0.3 to 1.6: every robot's base and shoulder stay clear of it
+(Spot's arm base and the Google Robot's torso would otherwise sit under its edge)."""
 STOVE_HALF_HEIGHT = 0.01
 POT_HEIGHT = 0.10
 LID_HALF_THICKNESS = 0.005
@@ -42,7 +45,7 @@ class LidTask(Task):
     def add_to_plant(self, plant: MultibodyPlant, parser: Parser) -> None:
         (table,) = parser.AddModels(url="package://legato_drake/table.sdf")
         plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("table_top", table),
-                         RigidTransform([0.6, 0.0, TABLE_HEIGHT]))
+                         RigidTransform([TABLE_CENTER_X, 0.0, TABLE_HEIGHT]))
         (stove,) = parser.AddModels(url="package://legato_drake/stove.sdf")
         (pot,) = parser.AddModels(url="package://legato_drake/pot.sdf")
         (lid,) = parser.AddModels(url="package://legato_drake/lid.sdf")
@@ -107,7 +110,7 @@ class LidTask(Task):
         yaw = np.arctan2(bar[1], bar[0])
         yaw = (yaw + np.pi / 2) % np.pi - np.pi / 2  # the bar direction closest to +x
         yaw += np.radians(uniform(rng, -4.0, 4.0))
-        pitch = np.radians(uniform(rng, 45.0, 65.0))
+        pitch = np.radians(uniform(rng, 35.0, 50.0))  # reachable by every robot (GR-1)
         R_grasp = RotationMatrix.MakeZRotation(yaw) @ RotationMatrix.MakeYRotation(pitch)
         approach = R_grasp.matrix()[:, 0]
 

@@ -1,0 +1,370 @@
+"""Collecting a demonstration dataset: episodes in parallel, atomic and resumable.
+
+Each episode (one seed, or one pose-stream file) is recorded by a worker process and written
+atomically as its own small HDF5 *part* file into the sibling folder ``<out>.parts/`` (named by
+its key, e.g. ``seed_000042.hdf5``); failed episodes get a part too, so that they are not
+retried. When enough episodes are kept, the parts are merged into ``<out>`` (written
+atomically too), with a manifest of every seed tried, kept and failed (and why), and the parts
+folder is removed. Restarting an interrupted collection skips the parts already written, so
+no episode is lost or duplicated; asking an existing dataset for more episodes extends it.
+
+Which seeds are kept does not depend on the number of workers or on interruptions: seeds are
+tried in order from ``seed0`` and the dataset holds the first ``episodes`` successful ones
+(or, with ``keep_failures``, the first ``episodes`` seeds).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses
+import json
+import logging
+import multiprocessing
+import shutil
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import h5py
+
+from legato_drake.data.layout import DatasetError, open_dataset, read_json_attr, sorted_demos
+from legato_drake.data.pose_stream import find_pose_streams, load_pose_stream
+from legato_drake.data.writer import Episode, env_args_for, merge_demos, write_dataset
+from legato_drake.files import atomic_write_text
+from legato_drake.scenario import Scenario
+
+log = logging.getLogger(__name__)
+
+PART_GROUP = "data/demo_0"
+CONFIG_KEYS = ("task", "embodiment", "camera", "duration", "source", "keep_failures")
+"""Collect settings that change what an episode is: a resumed collection must match them."""
+
+
+@dataclass(frozen=True)
+class Job:
+    """One episode to record: its part key, its scenario, extra demo attributes."""
+
+    key: str
+    scenario: Scenario
+    attrs: dict = field(default_factory=dict)
+
+
+@dataclass
+class CollectReport:
+    """What a collection did."""
+
+    out: Path
+    requested: int
+    kept: list[dict]
+    """Outcomes of the episodes in the dataset, in demo order."""
+    outcomes: list[dict]
+    """Outcomes of every episode tried (this run and earlier ones), by key."""
+    wall_time: float
+
+    @property
+    def failed(self) -> list[dict]:
+        """Outcomes of the episodes that did not succeed."""
+        return [o for o in self.outcomes if not o["success"]]
+
+
+def _keepable(outcome: dict, keep_failures: bool) -> bool:
+    """Whether an episode goes into the dataset: successes, and failures that recorded
+    samples with ``keep_failures``."""
+    return outcome["success"] or (keep_failures and outcome["num_samples"] > 0 and
+                                  not outcome.get("restored"))
+
+
+def seed_key(seed: int) -> str:
+    """Part key of a seeded episode."""
+    return f"seed_{seed:06d}"
+
+
+def parts_dir(out: Path) -> Path:
+    """The folder of part files of the dataset ``out``."""
+    return out.with_name(out.name + ".parts")
+
+
+def record_episode(scenario: Scenario) -> tuple[dict, Episode]:
+    """Simulates one recorded episode of ``scenario``; returns its result (as a dict) and the
+    episode's samples."""
+    from legato_drake.diagram import build_diagram
+    from legato_drake.episode import simulate
+
+    built = build_diagram(scenario, record=True)
+    simulator, result = simulate(built)
+    recorder = built.recorder
+    samples = recorder.log(recorder.GetMyContextFromRoot(simulator.get_context())).to_arrays()
+    if "action" not in samples:
+        raise DatasetError(f"seed {scenario.seed}: the episode ended before the first sample")
+    obs = {key: samples[key] for key in ("tcp_commanded", "tcp_measured", "object", "fingers",
+                                         "left_gray", "right_gray") if key in samples}
+    attrs = dict(seed=scenario.seed, embodiment=scenario.embodiment, task=scenario.task,
+                 controller=scenario.controller, reason=result.reason,
+                 scenario=dataclasses.asdict(scenario),
+                 success_time=result.success_time if result.success_time is not None
+                 else float("nan"),
+                 episode_time=result.episode_time, sim_time=result.sim_time,
+                 wall_time=result.wall_time, tracking_rms_mm=result.tracking.rms_mm,
+                 object_bodies=recorder.object_body_names)
+    episode = Episode(actions=samples["action"], obs=obs, success=result.success,
+                      states=samples["state"], attrs=attrs)
+    return result.to_dict(), episode
+
+
+def _outcome(job: Job, success: bool, reason: str, samples: int, wall: float) -> dict:
+    return dict(key=job.key, seed=job.scenario.seed, success=bool(success), reason=reason,
+                num_samples=int(samples), wall_time=round(wall, 3),
+                source=job.attrs.get("source", ""))
+
+
+def run_job(job: Job, folder: Path) -> dict:
+    """Records ``job`` and writes its part file atomically (in a worker process); returns the
+    outcome. An episode that raises is a failure with the error as its reason."""
+    start = time.perf_counter()
+    try:
+        _, episode = record_episode(job.scenario)
+    except Exception as e:  # a bad seed must not stop the collection
+        log.warning("%s failed with an error: %s", job.key, e)
+        outcome = _outcome(job, False, f"error: {type(e).__name__}: {e}", 0,
+                           time.perf_counter() - start)
+        write_dataset(folder / f"{job.key}.hdf5", [], extra=dict(outcome=outcome))
+        return outcome
+    episode.attrs.update(job.attrs, key=job.key)
+    outcome = _outcome(job, episode.success, str(episode.attrs["reason"]), len(episode),
+                       time.perf_counter() - start)
+    write_dataset(folder / f"{job.key}.hdf5", [episode], extra=dict(outcome=outcome))
+    return outcome
+
+
+def read_part(path: Path) -> dict | None:
+    """The outcome recorded in a part file (None if the file is unreadable or incomplete)."""
+    try:
+        with h5py.File(path, "r") as f:
+            outcome = read_json_attr(f["data"], "outcome")
+            if not isinstance(outcome, dict):
+                return None
+            if (outcome["success"] or outcome["num_samples"]) and \
+                    "actions" not in f.get(PART_GROUP, {}) and not outcome.get("restored"):
+                return None
+            return outcome
+    except (OSError, KeyError, ValueError, TypeError):
+        return None
+
+
+def scan_parts(folder: Path) -> dict[str, dict]:
+    """Outcomes of the part files in ``folder`` by key; removes leftovers of interrupted
+    writes (temporary files) and unreadable parts, which are then recorded again."""
+    outcomes = {}
+    for path in sorted(folder.glob(".*.tmp")):
+        path.unlink(missing_ok=True)
+    for path in sorted(folder.glob("*.hdf5")):
+        outcome = read_part(path)
+        if outcome is None or outcome.get("key") != path.stem:
+            log.warning("removing unreadable part %s (it will be recorded again)", path)
+            path.unlink(missing_ok=True)
+            continue
+        outcomes[path.stem] = outcome
+    return outcomes
+
+
+def _check_config(folder: Path, config: dict, out: Path) -> None:
+    path = folder / "config.json"
+    if path.is_file():
+        old = json.loads(path.read_text())
+        diff = [k for k in CONFIG_KEYS if old.get(k) != config.get(k)]
+        if diff:
+            raise DatasetError(
+                f"{folder} holds episodes collected with other settings "
+                f"({', '.join(f'{k}={old.get(k)!r}' for k in diff)}); collect into another "
+                f"--out than {out} or delete that folder")
+    else:
+        atomic_write_text(path, json.dumps(config, indent=1))
+
+
+def _restore_parts(out: Path, folder: Path, config: dict) -> None:
+    """Turns an existing dataset back into parts (to extend it with more episodes)."""
+    with open_dataset(out) as f:
+        old = read_json_attr(f["data"], "config", {})
+        diff = [k for k in CONFIG_KEYS if old.get(k) != config.get(k)]
+        if diff:
+            raise DatasetError(
+                f"{out} exists and was collected with other settings "
+                f"({', '.join(f'{k}={old.get(k)!r}' for k in diff)}); choose another --out "
+                "or delete it")
+        manifest = json.loads(f["meta/manifest"][()]) if "meta/manifest" in f else {}
+        folder.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(folder / "config.json", json.dumps(config, indent=1))
+        in_file = set()
+        for name in sorted_demos(f["data"]):
+            demo = f["data"][name]
+            key = str(demo.attrs.get("key", ""))
+            outcome = next((o for o in manifest.get("tried", []) if o["key"] == key), None)
+            if not key or outcome is None:
+                continue
+            in_file.add(key)
+            with h5py.File(folder / f".{key}.restore.tmp", "w") as part:
+                f.copy(demo, part.require_group("data"), name="demo_0")
+                part["data"].attrs["outcome"] = json.dumps(outcome)
+            (folder / f".{key}.restore.tmp").replace(folder / f"{key}.hdf5")
+        for outcome in manifest.get("tried", []):
+            if outcome["key"] not in in_file and not outcome["success"]:
+                write_dataset(folder / f"{outcome['key']}.hdf5", [],
+                              extra=dict(outcome={**outcome, "restored": True}))
+
+
+def _seed_jobs(base: Scenario, seed0: int, count: int) -> list[Job]:
+    return [Job(seed_key(s), base.replace(seed=s)) for s in range(seed0, seed0 + count)]
+
+
+def _stream_jobs(base: Scenario, source: Path, seed0: int, episodes: int) -> list[Job]:
+    jobs = []
+    for i, path in enumerate(find_pose_streams(source)[:episodes]):
+        stream = load_pose_stream(path)
+        if stream.task and stream.task != base.task:
+            raise DatasetError(f"pose stream {path} was recorded for task {stream.task!r}, "
+                               f"not {base.task!r}")
+        seed = stream.seed if stream.seed is not None else seed0 + i
+        scenario = base.replace(controller="replay", pose_stream=str(path.resolve()), seed=seed)
+        jobs.append(Job(f"stream_{i:04d}_{path.stem}"[:80], scenario,
+                        dict(source=path.name)))
+    return jobs
+
+
+def _schedule(jobs: list[Job], outcomes: dict[str, dict], needed: int, keep_failures: bool,
+              workers: int, folder: Path, bar) -> None:
+    """Runs jobs in order until ``needed`` episodes are kept among the first ones tried; at
+    most ``workers`` at a time, never speculating past what may still be needed."""
+    order = {job.key: i for i, job in enumerate(jobs)}
+    pending = deque(job for job in jobs if job.key not in outcomes)
+    in_flight: dict[str, object] = {}
+
+    def next_job() -> Job | None:
+        if not pending:
+            return None
+        index = order[pending[0].key]
+        kept = sum(1 for k, o in outcomes.items()
+                   if k in order and order[k] < index and _keepable(o, keep_failures))
+        if kept >= needed:
+            pending.clear()  # every later job is unnecessary
+            return None
+        if kept + len(in_flight) >= needed:
+            return None  # wait: the episodes in flight may be enough
+        return pending.popleft()
+
+    def record(outcome: dict) -> None:
+        outcomes[outcome["key"]] = outcome
+        if _keepable(outcome, keep_failures):
+            bar.update(1)
+        bar.set_postfix(tried=len(outcomes),
+                        failed=sum(not o["success"] for o in outcomes.values()))
+
+    if workers <= 1:
+        while (job := next_job()) is not None:
+            record(run_job(job, folder))
+        return
+    context = multiprocessing.get_context("spawn")
+    with cf.ProcessPoolExecutor(workers, mp_context=context) as pool:
+        while True:
+            while len(in_flight) < workers and (job := next_job()) is not None:
+                in_flight[job.key] = pool.submit(run_job, job, folder)
+            if not in_flight:
+                return
+            done, _ = cf.wait(in_flight.values(), return_when=cf.FIRST_COMPLETED)
+            for key in [k for k, future in in_flight.items() if future in done]:
+                record(in_flight.pop(key).result())
+
+
+def _up_to_date(out: Path, config: dict) -> dict | None:
+    """The manifest of ``out`` if it already holds exactly what ``config`` asks for."""
+    try:
+        with open_dataset(out) as f:
+            old = read_json_attr(f["data"], "config", {})
+            manifest = json.loads(f["meta/manifest"][()]) if "meta/manifest" in f else None
+    except (DatasetError, KeyError, ValueError, OSError):
+        return None
+    same = all(old.get(k) == config.get(k) for k in (*CONFIG_KEYS, "seed0", "keep_failures"))
+    if same and manifest and len(manifest.get("kept", [])) == config["episodes"]:
+        return manifest
+    return None
+
+
+def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers: int = 1,
+            keep_failures: bool = False, seed0: int = 0, source: str | Path | None = None,
+            camera: bool = True, duration: float | None = None,
+            max_attempts: int | None = None, keep_parts: bool = False,
+            progress: bool | None = None) -> CollectReport:
+    """Collects ``episodes`` demonstrations of ``task`` on ``embodiment`` into ``out``.
+
+    Seeds ``seed0, seed0 + 1, ..`` are tried in order (at most ``max_attempts``, default
+    ``3 episodes + 10``) until ``episodes`` successful ones are kept (any ones with
+    ``keep_failures``). With ``source`` (a pose-stream file or folder) each stream is one
+    episode, replayed by ``controller: replay`` in the scene of its recorded seed (else
+    ``seed0 + i``). ``camera=False`` records a state-only dataset; ``duration`` overrides the
+    scenario's episode length. Resumable; see the module docstring."""
+    start = time.perf_counter()
+    from tqdm import tqdm
+
+    out = Path(out)
+    if episodes < 1:
+        raise DatasetError(f"episodes must be at least 1, got {episodes}")
+    base = Scenario(embodiment=embodiment, task=task)
+    base.camera.enabled = camera
+    if duration is not None:
+        base = base.replace(duration=duration)
+    base.validate()
+    source_names = None
+    if source is not None:
+        source_names = [p.name for p in find_pose_streams(source)[:episodes]]
+    config = dict(task=task, embodiment=base.embodiment, camera=camera,
+                  duration=base.duration, source=source_names, seed0=seed0,
+                  keep_failures=keep_failures, episodes=episodes)
+    folder = parts_dir(out)
+    if out.exists() and not folder.exists():
+        manifest = _up_to_date(out, config)
+        if manifest is not None and source is None:
+            log.info("%s already holds the %d episodes asked for", out, episodes)
+            return CollectReport(out, episodes, [o for o in manifest["tried"]
+                                                 if o["key"] in set(manifest["kept"])],
+                                 manifest["tried"], time.perf_counter() - start)
+        _restore_parts(out, folder, config)
+    folder.mkdir(parents=True, exist_ok=True)
+    _check_config(folder, config, out)
+    outcomes = scan_parts(folder)
+    if outcomes:
+        log.info("resuming: %d episode(s) already recorded in %s", len(outcomes), folder)
+
+    if source is not None:
+        jobs = _stream_jobs(base, Path(source), seed0, episodes)
+        needed, keep_all = len(jobs), True
+    else:
+        attempts = max_attempts if max_attempts is not None else 3 * episodes + 10
+        jobs = _seed_jobs(base, seed0, max(attempts, episodes))
+        needed, keep_all = episodes, keep_failures
+    order = {job.key: i for i, job in enumerate(jobs)}
+    keepable = [k for k, o in outcomes.items() if k in order and _keepable(o, keep_all)]
+    bar = tqdm(total=needed, initial=min(len(keepable), needed), desc="collect",
+               unit="episode", disable=None if progress is None else not progress)
+    try:
+        _schedule(jobs, outcomes, needed, keep_all, workers, folder, bar)
+    finally:
+        bar.close()
+
+    tried = sorted((o for k, o in outcomes.items() if k in order), key=lambda o: order[o["key"]])
+    kept = [o for o in tried if _keepable(o, keep_failures)][:needed]
+    if source is None and len(kept) < episodes:
+        log.warning("only %d of %d episodes succeeded in %d seeds", len(kept), episodes,
+                    len(tried))
+    if not kept:
+        raise DatasetError(f"no episode kept ({len(tried)} tried, all failed); nothing "
+                           f"written to {out} (use --keep-failures to keep failed episodes)")
+    manifest = dict(config=config, requested=needed, kept=[o["key"] for o in kept],
+                    tried=tried, failed=[o for o in tried if not o["success"]])
+    env_args = env_args_for(dataclasses.asdict(base.replace(seed=seed0)))
+    merge_demos(out, [(folder / f"{o['key']}.hdf5", PART_GROUP) for o in kept], env_args,
+                config, manifest)
+    atomic_write_text(out.with_name(out.name + ".manifest.json"), json.dumps(manifest, indent=1))
+    if not keep_parts:
+        shutil.rmtree(folder, ignore_errors=True)
+    log.info("wrote %s: %d episodes kept of %d tried", out, len(kept), len(tried))
+    return CollectReport(out, needed, kept, tried, time.perf_counter() - start)

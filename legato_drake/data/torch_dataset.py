@@ -1,0 +1,157 @@
+"""A torch ``Dataset`` of training sequences from a demonstration file (robomimic-style).
+
+Item ``i`` is a window of ``seq_length`` consecutive samples of one demo::
+
+    {"obs": {key: tensor (L, ...)}, "actions": (L, 7) float32, "rewards": (L,) float32,
+     "dones": (L,) float32, "pad_mask": (L,) bool, "demo": str, "start": int}
+
+Windows start at every step of every demo in the split. With ``pad_seq_length`` (default, as
+robomimic) a window that runs past the end of its demo is padded by repeating the last sample
+and ``pad_mask`` is False on the padding; without it, windows lie inside demos (demos shorter
+than ``seq_length`` are skipped). Images ``left_gray``/``right_gray`` come channels-first,
+``(L, 1, H, W)``: uint8 in [0, 255] with ``image_dtype="uint8"``, float32 in [0, 1] with
+``"float"`` (default). Low-dim observations are float32.
+
+The file is validated on load (layout, format version, NaNs, masks, the requested keys) and
+any problem is a DatasetError naming the file. Low-dim data is read into memory at once;
+images are read per item from the file (opened lazily in each DataLoader worker), or cached
+with ``cache_images=True``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import h5py
+import numpy as np
+import torch
+from torch.utils.data import Dataset
+
+from legato_drake.data.layout import (
+    IMAGE_KEYS,
+    POLICY_OBS_KEYS,
+    DatasetError,
+    mask_names,
+    open_dataset,
+    sorted_demos,
+    validate_file,
+)
+
+SPLITS = ("train", "valid", "all")
+
+
+class DemoSequenceDataset(Dataset):
+    """Fixed-length sequences of (observations, actions) for training a policy."""
+
+    def __init__(self, path: str | Path, obs_keys: Sequence[str] = POLICY_OBS_KEYS,
+                 seq_length: int = 20, split: str = "train", pad_seq_length: bool = True,
+                 image_dtype: str = "float", cache_images: bool = False):
+        if seq_length < 1:
+            raise DatasetError(f"seq_length must be at least 1, got {seq_length}")
+        if split not in SPLITS:
+            raise DatasetError(f"unknown split {split!r}; valid values: {', '.join(SPLITS)}")
+        if image_dtype not in ("uint8", "float"):
+            raise DatasetError(f"image_dtype must be 'uint8' or 'float', got {image_dtype!r}")
+        self.path = Path(path)
+        self.obs_keys = tuple(obs_keys)
+        self.seq_length = seq_length
+        self.split = split
+        self.pad_seq_length = pad_seq_length
+        self.image_dtype = image_dtype
+        self._image_keys = [k for k in self.obs_keys if k in IMAGE_KEYS]
+        self._low_dim_keys = [k for k in self.obs_keys if k not in IMAGE_KEYS]
+        self._file: h5py.File | None = None
+        self._pid: int | None = None
+        self.demos, self._data = self._load(cache_images)
+        self._index: list[tuple[str, int]] = []
+        for name in self.demos:
+            T = len(self._data[name]["actions"])
+            last = T if pad_seq_length else T - seq_length + 1
+            self._index += [(name, start) for start in range(max(last, 0))]
+
+    def _load(self, cache_images: bool) -> tuple[list[str], dict[str, dict[str, np.ndarray]]]:
+        with open_dataset(self.path) as f:
+            issues = validate_file(f)
+            if issues:
+                more = f" (and {len(issues) - 5} more)" if len(issues) > 5 else ""
+                raise DatasetError(f"invalid dataset {self.path}:\n  " +
+                                   "\n  ".join(issues[:5]) + more)
+            names = sorted_demos(f["data"]) if self.split == "all" else \
+                sorted(mask_names(f, self.split), key=lambda n: int(n.split("_")[1]))
+            if not names:
+                raise DatasetError(f"{self.path}: split {self.split!r} holds no demos")
+            data = {}
+            for name in names:
+                demo = f["data"][name]
+                missing = [k for k in self.obs_keys if k not in demo["obs"]]
+                if missing:
+                    raise DatasetError(
+                        f"{self.path}: {name} has no observation(s) {', '.join(missing)}; "
+                        f"available: {', '.join(demo['obs'])}")
+                arrays = {key: demo[key][()].astype(np.float32)
+                          for key in ("actions", "rewards", "dones")}
+                for key in self._low_dim_keys:
+                    arrays[f"obs/{key}"] = demo["obs"][key][()].astype(np.float32)
+                if cache_images:
+                    for key in self._image_keys:
+                        arrays[f"obs/{key}"] = demo["obs"][key][()]
+                data[name] = arrays
+        return names, data
+
+    def __len__(self) -> int:
+        return len(self._index)
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_file"], state["_pid"] = None, None  # h5py handles do not cross processes
+        return state
+
+    def _h5(self) -> h5py.File:
+        if self._file is None or self._pid != os.getpid():
+            try:
+                self._file = h5py.File(self.path, "r")
+            except OSError as e:
+                raise DatasetError(f"cannot open dataset {self.path}: {e}") from None
+            self._pid = os.getpid()
+        return self._file
+
+    def _images(self, name: str, key: str, start: int, stop: int) -> np.ndarray:
+        cached = self._data[name].get(f"obs/{key}")
+        if cached is not None:
+            return cached[start:stop]
+        try:
+            return self._h5()["data"][name]["obs"][key][start:stop]
+        except (OSError, KeyError) as e:
+            raise DatasetError(f"{self.path}: cannot read {name}/obs/{key} "
+                               f"({str(e).split('(')[0].strip()})") from None
+
+    def __getitem__(self, i: int) -> dict:
+        name, start = self._index[i]
+        arrays = self._data[name]
+        T = len(arrays["actions"])
+        stop = min(start + self.seq_length, T)
+        steps = np.minimum(np.arange(start, start + self.seq_length), T - 1) - start
+        obs = {}
+        for key in self._low_dim_keys:
+            obs[key] = torch.from_numpy(arrays[f"obs/{key}"][start:stop][steps])
+        for key in self._image_keys:
+            frames = self._images(name, key, start, stop)[steps]  # (L, H, W, 1)
+            image = torch.from_numpy(np.ascontiguousarray(frames.transpose(0, 3, 1, 2)))
+            obs[key] = image.float() / 255.0 if self.image_dtype == "float" else image
+        return {
+            "obs": obs,
+            "actions": torch.from_numpy(arrays["actions"][start:stop][steps]),
+            "rewards": torch.from_numpy(arrays["rewards"][start:stop][steps]),
+            "dones": torch.from_numpy(arrays["dones"][start:stop][steps]),
+            "pad_mask": torch.from_numpy(np.arange(start, start + self.seq_length) < T),
+            "demo": name,
+            "start": start,
+        }
+
+    def close(self) -> None:
+        """Closes the file handle (if open)."""
+        if self._file is not None:
+            self._file.close()
+            self._file = None
