@@ -3,8 +3,9 @@
 Run: ``python models/generate_models.py``.
 
 The files it writes (``legato_gripper.sdf``, ``abstract.urdf``, ``panda.urdf``, ``spot.urdf``,
-``google_robot.urdf``, ``gr1.urdf``, ``table.sdf``, ``stove.sdf``, ``pot.sdf``, ``lid.sdf``) are
-committed; this script only documents how their numbers were made and regenerates them.
+``google_robot.urdf``, ``gr1.urdf``, ``table.sdf``, ``stove.sdf``, ``pot.sdf``, ``lid.sdf``,
+``shelf.sdf``, ``cup.sdf``, ``ladle.sdf``, ``case.sdf``) are committed; this script only
+documents how their numbers were made and regenerates them.
 Masses are spread over a body's shapes in proportion to their volume (unless a shape names its
 own mass), and every inertia is the exact composite of the solid primitives (computed with
 Drake's ``SpatialInertia`` helpers), so it is positive definite and physically valid by
@@ -127,6 +128,18 @@ def fv(v) -> str:
     return " ".join(f(float(x)) for x in v)
 
 
+def fc(x: float) -> str:
+    """Formats a computed physical quantity (centre of mass, inertia) to 10 significant digits
+    after rounding to 1e-12: their last bits differ between machines' floating-point
+    libraries, and the committed files must not."""
+    x = round(float(x), 12)
+    return "0" if x == 0 else f"{x:.10g}"
+
+
+def fcv(v) -> str:
+    return " ".join(fc(x) for x in v)
+
+
 # --------------------------------------------------------------------------------- colours
 
 COLOURS = {
@@ -155,6 +168,12 @@ COLOURS = {
     "google_dark": (0.15, 0.15, 0.16, 1.0),
     "gr1_silver": (0.78, 0.79, 0.81, 1.0),
     "gr1_dark": (0.20, 0.20, 0.22, 1.0),
+    # cup and ladle scenes
+    "shelf": (0.55, 0.62, 0.70, 1.0),  # 0.61
+    "cup": (0.20, 0.45, 0.85, 1.0),  # 0.42
+    "ladle": (0.90, 0.85, 0.30, 1.0),  # 0.80
+    "ladle_handle": (0.15, 0.10, 0.08, 1.0),  # 0.11
+    "case": (0.35, 0.55, 0.35, 1.0),  # 0.47
 }
 
 
@@ -180,13 +199,13 @@ def sdf_body(b: Body, pose: str | None = None) -> str:
         out.append(f"      <pose{pose}</pose>\n")
     out.append(
         "      <inertial>\n"
-        f"        <pose>{fv(com)} 0 0 0</pose>\n"
+        f"        <pose>{fcv(com)} 0 0 0</pose>\n"
         f"        <mass>{f(b.mass)}</mass>\n"
         "        <inertia>\n"
-        f"          <ixx>{f(inertia[0, 0])}</ixx><ixy>{f(inertia[0, 1])}</ixy>"
-        f"<ixz>{f(inertia[0, 2])}</ixz>\n"
-        f"          <iyy>{f(inertia[1, 1])}</iyy><iyz>{f(inertia[1, 2])}</iyz>"
-        f"<izz>{f(inertia[2, 2])}</izz>\n"
+        f"          <ixx>{fc(inertia[0, 0])}</ixx><ixy>{fc(inertia[0, 1])}</ixy>"
+        f"<ixz>{fc(inertia[0, 2])}</ixz>\n"
+        f"          <iyy>{fc(inertia[1, 1])}</iyy><iyz>{fc(inertia[1, 2])}</iyz>"
+        f"<izz>{fc(inertia[2, 2])}</izz>\n"
         "        </inertia>\n"
         "      </inertial>\n"
     )
@@ -252,11 +271,11 @@ def urdf_link(b: Body, inertia_override=None) -> str:
         (
             f'  <link name="{b.name}">\n'
             "    <inertial>\n"
-            f'      <origin xyz="{fv(com)}" rpy="0 0 0"/>\n'
+            f'      <origin xyz="{fcv(com)}" rpy="0 0 0"/>\n'
             f'      <mass value="{f(b.mass)}"/>\n'
-            f'      <inertia ixx="{f(inertia[0, 0])}" ixy="{f(inertia[0, 1])}" '
-            f'ixz="{f(inertia[0, 2])}" iyy="{f(inertia[1, 1])}" iyz="{f(inertia[1, 2])}" '
-            f'izz="{f(inertia[2, 2])}"/>\n'
+            f'      <inertia ixx="{fc(inertia[0, 0])}" ixy="{fc(inertia[0, 1])}" '
+            f'ixz="{fc(inertia[0, 2])}" iyy="{fc(inertia[1, 1])}" iyz="{fc(inertia[1, 2])}" '
+            f'izz="{fc(inertia[2, 2])}"/>\n'
             "    </inertial>\n"
         )
     ]
@@ -1306,6 +1325,193 @@ def lid_sdf() -> str:
     )
 
 
+# ================================================================================ cup scene
+
+SHELF_SIZE = (0.5, 0.3, 0.43)
+"""Outer size of the open shelf: width (x), depth (y), height (z)."""
+SHELF_SIDE = 0.02
+SHELF_BACK = 0.02
+SHELF_BOARD = 0.035
+"""Side and back walls 0.02 thick, top and bottom boards 0.035: interior 0.46 x 0.28 x 0.36."""
+
+
+def box_corners(size, radius: float, bottom: float, inset: float = 0.0) -> list[Shape]:
+    """Support spheres under the four bottom corners of a ``size`` footprint centred at 0."""
+    hx, hy = size[0] / 2 - radius - inset, size[1] / 2 - radius - inset
+    return support_spheres([(sx * hx, sy * hy) for sx in (1, -1) for sy in (1, -1)], radius,
+                           bottom)
+
+
+def shelf_sdf() -> str:
+    """The doorless open shelf of the cup task (the reference's cabinet without doors)."""
+    w, d, h = SHELF_SIZE
+    shapes = [
+        Shape("box", (w, d, SHELF_BOARD), (0, 0, SHELF_BOARD / 2), colour="shelf"),
+        Shape("box", (w, d, SHELF_BOARD), (0, 0, h - SHELF_BOARD / 2), colour="shelf"),
+        Shape("box", (w, SHELF_BACK, h - 2 * SHELF_BOARD), (0, -d / 2 + SHELF_BACK / 2, h / 2),
+              colour="shelf"),
+    ]
+    for s in (1.0, -1.0):
+        shapes.append(Shape("box", (SHELF_SIDE, d - SHELF_BACK, h - 2 * SHELF_BOARD),
+                            (s * (w - SHELF_SIDE) / 2, SHELF_BACK / 2, h / 2), colour="shelf"))
+    shapes += box_corners((w, d), 0.008, 0.0, inset=0.005)
+    body = Body("shelf", 5.0, shapes, mu=0.6)
+    interior_y = SHELF_BACK / 2
+    frame = (
+        '    <frame name="shelf_interior" attached_to="shelf">\n'
+        f'      <pose relative_to="shelf">0 {f(interior_y)} {f(h / 2)} 0 0 0</pose>\n'
+        "    </frame>\n"
+    )
+    return sdf_file(
+        "shelf",
+        "Open shelf (SPEC section 6, cup task; a doorless cabinet): outer 0.5 (x) x 0.3 (y)\n"
+        "     x 0.43 (z), origin at the centre of the bottom face, open front facing +y.\n"
+        "     Interior 0.46 x 0.28 x 0.36 between 0.02 side and back walls and 0.035 top and\n"
+        "     bottom boards; shelf_interior = interior centre. 5 kg. Four collision spheres\n"
+        "     flush with the bottom give it a stable support under point contact.",
+        sdf_body(body) + frame,
+    )
+
+
+CUP_N = 16
+CUP_R_OUT = 0.08
+CUP_R_IN = 0.07
+CUP_H = 0.16
+CUP_BASE = 0.01
+CUP_HANDLE = (0.024, 0.014, 0.10)
+"""Handle bar: radial depth, tangential width (what the pads pinch), height."""
+CUP_HANDLE_R = 0.115
+CUP_HANDLE_Z = 0.085
+
+
+def cup_sdf() -> str:
+    """The cup of the cup task: a thin-walled cylinder with a vertical loop handle on +y."""
+    # The base is visual (with mass); its collision is a ring of spheres, because a flat
+    # disc would rock under point contact.
+    shapes = [Shape("cyl", (CUP_R_OUT, CUP_BASE), (0, 0, CUP_BASE / 2), colour="cup",
+                    role="visual")]
+    wall = CUP_R_OUT - CUP_R_IN
+    seg = 2 * CUP_R_OUT * math.tan(PI / CUP_N)
+    rc = CUP_R_OUT - wall / 2
+    for k in range(CUP_N):
+        a = 2 * PI * k / CUP_N
+        shapes.append(Shape("box", (wall, seg, CUP_H - CUP_BASE),
+                            (rc * math.cos(a), rc * math.sin(a), (CUP_H + CUP_BASE) / 2),
+                            (0, 0, a), colour="cup"))
+    # The handle stands on the cup's +y side: at the SPEC's cup yaw (0.75 pi) it points to
+    # -x -y, towards the robots, and a gripper reaches it pointing forward and left.
+    depth, width, height = CUP_HANDLE
+    shapes.append(Shape("box", (width, depth, height), (0, CUP_HANDLE_R, CUP_HANDLE_Z),
+                        colour="cup", name="cup_handle_bar"))
+    arm_y0 = CUP_R_OUT - 0.002
+    arm_y1 = CUP_HANDLE_R - depth / 2
+    for z in (CUP_HANDLE_Z - height / 2 + 0.006, CUP_HANDLE_Z + height / 2 - 0.006):
+        shapes.append(Shape("box", (width, arm_y1 - arm_y0, 0.012),
+                            (0, (arm_y0 + arm_y1) / 2, z), colour="cup"))
+    shapes += support_spheres(
+        [(0.072 * math.cos(k * PI / 4), 0.072 * math.sin(k * PI / 4)) for k in range(8)],
+        0.004, 0.0)
+    body = Body("cup", 0.1, shapes, mu=0.8)
+    frame = (
+        '    <frame name="cup_handle" attached_to="cup">\n'
+        f'      <pose relative_to="cup">0 {f(CUP_HANDLE_R)} {f(CUP_HANDLE_Z)} 0 0 0</pose>\n'
+        "    </frame>\n"
+    )
+    return sdf_file(
+        "cup",
+        "Cup (SPEC section 6): origin at the centre of the bottom face; outer radius 0.08,\n"
+        "     inner 0.07, 0.16 tall (a 0.01 base and 16 tangential wall boxes); a vertical\n"
+        "     handle bar 0.024 (radial) x 0.014 (tangential) x 0.10 at radius 0.115 on +y,\n"
+        "     joined to the wall by two arms; 0.1 kg. cup_handle = bar centre. Eight\n"
+        "     collision spheres flush with the bottom give it a stable support.",
+        sdf_body(body) + frame,
+    )
+
+
+# ================================================================================ ladle scene
+
+LADLE_HANDLE = (0.08, 0.04, 0.04)
+LADLE_STICK = (0.12, 0.02, 0.02)
+LADLE_SCOOP = (0.06, 0.06, 0.03)
+
+
+def corner_spheres(size, centre, radius: float) -> list[Shape]:
+    """Massless collision spheres in the eight corners of a box, flush with its faces."""
+    half = np.asarray(size) / 2 - radius
+    return [Shape("sph", (radius,), (centre[0] + sx * half[0], centre[1] + sy * half[1],
+                                     centre[2] + sz * half[2]), role="collision",
+                  inertial=False)
+            for sx in (1, -1) for sy in (1, -1) for sz in (1, -1)]
+
+
+def ladle_sdf() -> str:
+    """The ladle: handle, stick and scoop boxes in a row along +x; high friction (2)."""
+    hx, sx, cx = LADLE_HANDLE[0], LADLE_STICK[0], LADLE_SCOOP[0]
+    handle_c = (hx / 2, 0.0, 0.0)
+    scoop_c = (hx + sx + cx / 2, 0.0, 0.0)
+    shapes = [
+        Shape("box", LADLE_HANDLE, handle_c, colour="ladle_handle"),
+        Shape("box", LADLE_STICK, (hx + sx / 2, 0, 0), colour="ladle"),
+        Shape("box", LADLE_SCOOP, scoop_c, colour="ladle"),
+        *corner_spheres(LADLE_HANDLE, handle_c, 0.004),
+        *corner_spheres(LADLE_SCOOP, scoop_c, 0.004),
+    ]
+    body = Body("ladle", 0.2, shapes, mu=2.0)
+    frame = (
+        '    <frame name="ladle_handle" attached_to="ladle">\n'
+        f'      <pose relative_to="ladle">{f(hx / 2)} 0 0 0 0 0</pose>\n'
+        "    </frame>\n"
+    )
+    return sdf_file(
+        "ladle",
+        "Ladle (SPEC section 6): along +x from the origin at the handle's end: handle\n"
+        "     0.08 x 0.04 x 0.04, stick 0.12 x 0.02 x 0.02, scoop 0.06 x 0.06 x 0.03, all\n"
+        "     centred on the x axis; 0.2 kg; friction 2 (SPEC: the ladle needs more grip).\n"
+        "     ladle_handle = handle centre. Collision spheres in the handle's and scoop's\n"
+        "     corners give it a stable multi-point support under point contact.",
+        sdf_body(body) + frame,
+    )
+
+
+CASE_INTERIOR = (0.16, 0.26)
+CASE_WALL = 0.01
+CASE_BASE = 0.01
+CASE_WALL_H = 0.04
+
+
+def case_sdf() -> str:
+    """The utensil case: an open tray (interior 0.16 x 0.26, walls 0.04 above its floor)."""
+    ix, iy = CASE_INTERIOR
+    ox, oy = ix + 2 * CASE_WALL, iy + 2 * CASE_WALL
+    z_wall = CASE_BASE + CASE_WALL_H / 2
+    shapes = [
+        Shape("box", (ox, oy, CASE_BASE), (0, 0, CASE_BASE / 2), colour="case"),
+        Shape("box", (CASE_WALL, oy, CASE_WALL_H), ((ix + CASE_WALL) / 2, 0, z_wall),
+              colour="case"),
+        Shape("box", (CASE_WALL, oy, CASE_WALL_H), (-(ix + CASE_WALL) / 2, 0, z_wall),
+              colour="case"),
+        Shape("box", (ix, CASE_WALL, CASE_WALL_H), (0, (iy + CASE_WALL) / 2, z_wall),
+              colour="case"),
+        Shape("box", (ix, CASE_WALL, CASE_WALL_H), (0, -(iy + CASE_WALL) / 2, z_wall),
+              colour="case"),
+        *box_corners((ox, oy), 0.005, 0.0),
+    ]
+    body = Body("case", 0.5, shapes, mu=0.7)
+    frame = (
+        '    <frame name="case_floor" attached_to="case">\n'
+        f'      <pose relative_to="case">0 0 {f(CASE_BASE)} 0 0 0</pose>\n'
+        "    </frame>\n"
+    )
+    return sdf_file(
+        "case",
+        "Utensil case (SPEC section 6, ladle task): origin at the centre of the bottom face;\n"
+        "     0.01 floor plate, interior 0.16 (x) x 0.26 (y), 0.01 walls 0.04 high above the\n"
+        "     floor; 0.5 kg. case_floor = centre of the floor's top face. Four collision\n"
+        "     spheres flush with the bottom give it a stable support.",
+        sdf_body(body) + frame,
+    )
+
+
 PACKAGE_XML = """<?xml version="1.0"?>
 <package format="2">
   <name>legato_drake</name>
@@ -1331,6 +1537,10 @@ def main() -> None:
         "stove.sdf": stove_sdf(),
         "pot.sdf": pot_sdf(),
         "lid.sdf": lid_sdf(),
+        "shelf.sdf": shelf_sdf(),
+        "cup.sdf": cup_sdf(),
+        "ladle.sdf": ladle_sdf(),
+        "case.sdf": case_sdf(),
     }
     for name, text in files.items():
         (HERE / name).write_text(text)

@@ -19,6 +19,16 @@ def test_smoke_every_embodiment_with_cameras(embodiment):
     assert not result.success and result.reason
 
 
+@pytest.mark.parametrize("task", ["cup", "ladle"])
+def test_smoke_every_new_task_with_cameras(task):
+    """Build, render and run 1 s of the cup and ladle scenes on Abstract: no crash."""
+    result = run_episode(Scenario(embodiment="abstract", task=task, duration=1.0))
+    assert result.task == task
+    assert result.episode_time == pytest.approx(1.0, abs=0.01)
+    assert result.tracking.rms_mm < 5.0 and result.tracking.rms_deg < 2.0
+    assert not result.success and result.reason
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("embodiment", ["abstract", "panda"])
 @pytest.mark.parametrize("seed", [1, 2])

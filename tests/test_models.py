@@ -38,6 +38,10 @@ MODEL_FILES = (
     "stove.sdf",
     "pot.sdf",
     "lid.sdf",
+    "shelf.sdf",
+    "cup.sdf",
+    "ladle.sdf",
+    "case.sdf",
 )
 PANDA_LIMITS = {  # name: (lower, upper, effort, velocity)
     "panda_joint1": (-2.8973, 2.8973, 87.0, 2.175),
@@ -191,6 +195,10 @@ def test_generator_reproduces_the_files(models_dir):
         "stove.sdf": module.stove_sdf(),
         "pot.sdf": module.pot_sdf(),
         "lid.sdf": module.lid_sdf(),
+        "shelf.sdf": module.shelf_sdf(),
+        "cup.sdf": module.cup_sdf(),
+        "ladle.sdf": module.ladle_sdf(),
+        "case.sdf": module.case_sdf(),
         "package.xml": module.PACKAGE_XML,
     }
     for name, text in expected.items():
@@ -1004,3 +1012,120 @@ def test_gr1_home_arm_tilt_and_head_camera(robots):
     assert 1.4 < X_cam.translation()[2] < 1.6
     assert gr1.frame("head_camera").body().name() == "head_camera"
     assert gr1.joint("head_camera_joint").parent_body().name() == "head"
+
+
+# ---------------------------------------------------------------------------- cup and ladle scenes
+
+
+def collision_boxes(loaded: Loaded, body: str) -> list[tuple[np.ndarray, RigidTransform]]:
+    """(size, pose in the body) of the body's box collision geometries."""
+    return [(np.array(loaded.inspector.GetShape(g).size()), loaded.geometry_pose_in_body(g))
+            for g in loaded.collisions(body) if isinstance(loaded.inspector.GetShape(g), Box)]
+
+
+def collision_feet(loaded: Loaded, body: str) -> np.ndarray:
+    """Lowest points of the body's sphere collision geometries."""
+    return np.array([loaded.geometry_pose_in_body(g).translation()
+                     - [0, 0, loaded.inspector.GetShape(g).radius()]
+                     for g in loaded.collisions(body)
+                     if isinstance(loaded.inspector.GetShape(g), Sphere)])
+
+
+def box_extent(boxes) -> tuple[np.ndarray, np.ndarray]:
+    """Axis-aligned bounds (min, max) of unrotated boxes."""
+    lows = [X.translation() - size / 2 for size, X in boxes]
+    highs = [X.translation() + size / 2 for size, X in boxes]
+    return np.min(lows, axis=0), np.max(highs, axis=0)
+
+
+def test_shelf(models_dir):
+    shelf = single_body(models_dir, "shelf.sdf", "shelf", "shelf")
+    assert shelf.plant.GetBodyByName("shelf").default_mass() == pytest.approx(5.0)
+    boxes = collision_boxes(shelf, "shelf")
+    assert len(boxes) == 5  # floor, top, back, two sides: no front, no doors
+    low, high = box_extent(boxes)
+    np.testing.assert_allclose(low, [-0.25, -0.15, 0.0], atol=1e-12)
+    np.testing.assert_allclose(high, [0.25, 0.15, 0.43], atol=1e-12)
+    # Interior 0.46 x 0.28 x 0.36, open at y = +0.15; shelf_interior = its centre.
+    X_interior = shelf.frame("shelf_interior").GetFixedPoseInBodyFrame()
+    np.testing.assert_allclose(X_interior.translation(), [0, 0.01, 0.215])
+    p = X_interior.translation()
+    for size, X in boxes:  # no wall reaches into the interior box
+        overlap = np.minimum(X.translation() + size / 2, p + [0.23, 0.14, 0.18]) \
+            - np.maximum(X.translation() - size / 2, p - [0.23, 0.14, 0.18])
+        assert np.any(overlap <= 1e-12)
+    feet = collision_feet(shelf, "shelf")
+    assert len(feet) == 4
+    np.testing.assert_allclose(feet[:, 2], 0.0, atol=1e-12)
+
+
+def test_cup(models_dir):
+    cup = single_body(models_dir, "cup.sdf", "cup", "cup")
+    body = cup.plant.GetBodyByName("cup")
+    assert body.default_mass() == pytest.approx(0.1)
+    X_handle = cup.frame("cup_handle").GetFixedPoseInBodyFrame()
+    np.testing.assert_allclose(X_handle.translation(), [0, 0.115, 0.085])
+    boxes = collision_boxes(cup, "cup")
+    walls = [(size, X) for size, X in boxes if size[2] == pytest.approx(0.15)]
+    assert len(walls) == 16
+    for size, X in walls:  # outer radius 0.08, inner 0.07, from the 0.01 base up to 0.16
+        radial = X.rotation().matrix()[:, 0]
+        r = np.dot(X.translation()[:2], radial[:2])
+        assert r + size[0] / 2 == pytest.approx(0.08) and r - size[0] / 2 == pytest.approx(0.07)
+        assert X.translation()[2] + size[2] / 2 == pytest.approx(0.16)
+    (bar,) = [(size, X) for size, X in boxes if size[2] == pytest.approx(0.10)]
+    np.testing.assert_allclose(bar[0], [0.014, 0.024, 0.10])  # 14 mm across the pads
+    np.testing.assert_allclose(bar[1].translation(), [0, 0.115, 0.085])
+    arms = [(size, X) for size, X in boxes if size[2] == pytest.approx(0.012)]
+    assert len(arms) == 2
+    for size, X in arms:  # joining the wall to the bar
+        assert X.translation()[1] - size[1] / 2 < 0.08
+        assert X.translation()[1] + size[1] / 2 == pytest.approx(0.115 - 0.012)
+    feet = collision_feet(cup, "cup")
+    assert len(feet) == 8
+    np.testing.assert_allclose(feet[:, 2], 0.0, atol=1e-12)
+    for geometry_id in cup.collisions("cup"):
+        assert cup.friction(geometry_id).static_friction() == pytest.approx(0.8)
+
+
+def test_ladle(models_dir):
+    ladle = single_body(models_dir, "ladle.sdf", "ladle", "ladle")
+    assert ladle.plant.GetBodyByName("ladle").default_mass() == pytest.approx(0.2)
+    boxes = sorted(collision_boxes(ladle, "ladle"), key=lambda sx: sx[1].translation()[0])
+    sizes = [size for size, _ in boxes]
+    np.testing.assert_allclose(sizes, [[0.08, 0.04, 0.04], [0.12, 0.02, 0.02],
+                                       [0.06, 0.06, 0.03]])
+    np.testing.assert_allclose([X.translation() for _, X in boxes],
+                               [[0.04, 0, 0], [0.14, 0, 0], [0.23, 0, 0]], atol=1e-12)
+    np.testing.assert_allclose(
+        ladle.frame("ladle_handle").GetFixedPoseInBodyFrame().translation(), [0.04, 0, 0])
+    for geometry_id in ladle.collisions("ladle"):
+        assert ladle.friction(geometry_id).static_friction() == pytest.approx(2.0)
+        shape = ladle.inspector.GetShape(geometry_id)
+        if isinstance(shape, Sphere):  # corner spheres stay inside the handle or the scoop
+            p = ladle.geometry_pose_in_body(geometry_id).translation()
+            inside = [np.all(np.abs(p - X.translation()) + shape.radius() <= size / 2 + 1e-12)
+                      for size, X in boxes]
+            assert any(inside)
+
+
+def test_case(models_dir):
+    case = single_body(models_dir, "case.sdf", "case", "case")
+    assert case.plant.GetBodyByName("case").default_mass() == pytest.approx(0.5)
+    boxes = collision_boxes(case, "case")
+    assert len(boxes) == 5
+    low, high = box_extent(boxes)
+    np.testing.assert_allclose(low, [-0.09, -0.14, 0.0], atol=1e-12)
+    np.testing.assert_allclose(high, [0.09, 0.14, 0.05], atol=1e-12)
+    np.testing.assert_allclose(
+        case.frame("case_floor").GetFixedPoseInBodyFrame().translation(), [0, 0, 0.01])
+    walls = [(size, X) for size, X in boxes if size[2] == pytest.approx(0.04)]
+    assert len(walls) == 4
+    inner_x = min(abs(X.translation()[0]) - size[0] / 2 for size, X in walls
+                  if size[1] > 0.2)
+    inner_y = min(abs(X.translation()[1]) - size[1] / 2 for size, X in walls
+                  if size[0] < 0.2 and size[1] < 0.05)
+    assert (2 * inner_x, 2 * inner_y) == pytest.approx((0.16, 0.26))
+    feet = collision_feet(case, "case")
+    assert len(feet) == 4
+    np.testing.assert_allclose(feet[:, 2], 0.0, atol=1e-12)

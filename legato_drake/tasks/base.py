@@ -75,3 +75,14 @@ def tilt_angle(R: RotationMatrix) -> float:
 def uniform(rng: np.random.Generator, low: float, high: float) -> float:
     """One uniform draw as a Python float."""
     return float(rng.uniform(low, high))
+
+
+TABLE_CENTER_X = 0.95
+"""The 1.3 m table spans x from 0.3 to 1.6: every robot's base and shoulder stay clear of it."""
+
+
+def add_table(plant: MultibodyPlant, parser: Parser, height: float) -> None:
+    """Welds the shared table model with its top surface at ``height`` (SPEC §6)."""
+    (table,) = parser.AddModels(url="package://legato_drake/table.sdf")
+    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("table_top", table),
+                     RigidTransform([TABLE_CENTER_X, 0.0, height]))
