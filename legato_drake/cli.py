@@ -49,12 +49,9 @@ def _demo_episode(job: tuple) -> dict:
 def cmd_demo(args: argparse.Namespace) -> int:
     """Runs the scripted demonstrator per embodiment, task and seed; writes replays; prints a
     table (one row per episode, or per embodiment and task with 95 % Wilson intervals)."""
-    import multiprocessing
-
-    from tqdm import tqdm
-
     from legato_drake.embodiments import EMBODIMENTS
     from legato_drake.files import atomic_write_text
+    from legato_drake.parallel import parallel_map
     from legato_drake.report import format_table
     from legato_drake.scenario import Scenario, load_scenario
     from legato_drake.stats import wilson_interval
@@ -78,12 +75,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
                 scenario = base.replace(embodiment=embodiment, task=task, seed=seed)
                 html = None if args.no_replay else out / f"{embodiment}-{task}-seed{seed}.html"
                 jobs.append((scenario, html))
-    progress = dict(total=len(jobs), desc="demo", unit="episode", disable=None)
-    if args.workers > 1 and len(jobs) > 1:
-        with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
-            results = list(tqdm(pool.imap(_demo_episode, jobs), **progress))
-    else:
-        results = [_demo_episode(job) for job in tqdm(jobs, **progress)]
+    results = parallel_map(_demo_episode, jobs, args.workers, desc="demo")
     for r in results:
         if r["html"]:
             log.info("wrote %s", r["html"])
@@ -171,6 +163,53 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_train(args: argparse.Namespace) -> int:
+    """Trains a policy (``legato_drake.learning.train``)."""
+    from legato_drake.learning.config import load_config
+    from legato_drake.learning.train import train
+
+    config = load_config(args.config, args.set)
+    ckpt = train(config, Path(args.data), Path(args.out), steps=args.steps, device=args.device,
+                 resume=args.resume)
+    log.info("step %d, best validation loss %.4f; wrote %s", ckpt.step, ckpt.best_valid,
+             Path(args.out) / "best.pt")
+    return 0
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    """Evaluates a checkpoint closed-loop (or, with --plot, combines results files into one
+    plot); prints the success table with 95 % Wilson intervals."""
+    from legato_drake.embodiments import EMBODIMENTS
+    from legato_drake.evaluation import (
+        SUMMARY_HEADERS,
+        combine,
+        evaluate,
+        plot_success,
+        results_path,
+        summarize,
+    )
+    from legato_drake.report import format_table
+    from legato_drake.tasks import TASKS
+
+    out = Path(args.out)
+    if args.plot:
+        trials = combine(args.plot)
+        png = plot_success(trials, out / "success_rates.png")
+    elif args.checkpoint:
+        doc = evaluate(args.checkpoint, _names(args.embodiments, EMBODIMENTS, "embodiment"),
+                       _names(args.tasks, TASKS, "task"), args.trials, out,
+                       workers=args.workers, replays=args.replays, method=args.method,
+                       seed0=args.seed0, duration=args.duration)
+        trials = doc["trials"]
+        png = plot_success(trials, out / f"{doc['method']}.png")
+        log.info("wrote %s", results_path(out, doc["method"]))
+    else:
+        raise argparse.ArgumentTypeError("evaluate needs --checkpoint (or --plot FILES)")
+    print(format_table(SUMMARY_HEADERS, summarize(trials)))
+    log.info("wrote %s", png)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``legato-drake``."""
     parser = argparse.ArgumentParser(
@@ -253,6 +292,48 @@ def build_parser() -> argparse.ArgumentParser:
     inspect.add_argument("--episode", type=int, default=0, help="demo index to plot (0)")
     inspect.add_argument("--out", help="folder for the plots (default: FILE.inspect/)")
     inspect.set_defaults(func=cmd_inspect)
+
+    train = verbs.add_parser(
+        "train", help="train a policy (LEGATO or BC-RNN) on a demonstration dataset",
+        description="Trains the policy of a learning config (configs/*.yaml) on a dataset; "
+                    "writes OUT/log.csv (every loss term, validation losses), OUT/last.pt and "
+                    "OUT/best.pt (config, normalisation, step, optimizer). Seeded; --resume "
+                    "continues from OUT/last.pt. The L_invar ablation: --set "
+                    "invariant_weight=0.")
+    train.add_argument("--config", required=True, help="learning config YAML")
+    train.add_argument("--data", required=True, help="dataset file, e.g. data/lid.hdf5")
+    train.add_argument("--out", required=True, help="run folder, e.g. runs/legato")
+    train.add_argument("--steps", type=int, default=None, help="steps in all (default: config)")
+    train.add_argument("--device", default="cpu", help="cpu (default) or cuda")
+    train.add_argument("--resume", action="store_true", help="continue from OUT/last.pt")
+    train.add_argument("--set", action="append", metavar="FIELD=VALUE",
+                       help="override a config field (repeatable), e.g. invariant_weight=0")
+    train.set_defaults(func=cmd_train)
+
+    evaluate = verbs.add_parser(
+        "evaluate", help="closed-loop trials of a trained policy; success table and plot",
+        description="Runs --trials trials (scene seeds --seed0, --seed0 + 1, ...) per "
+                    "embodiment and task with the policy in place of the demonstrator; writes "
+                    "OUT/<method>.json and .csv after every trial (a rerun resumes), "
+                    "OUT/<method>.png (success with 95 %% Wilson intervals) and Meshcat "
+                    "replays of the first --replays trials. --plot FILES combines results "
+                    "files into OUT/success_rates.png.")
+    evaluate.add_argument("--checkpoint", help="checkpoint, e.g. runs/legato/best.pt")
+    evaluate.add_argument("--embodiments", default="all", help="names or 'all' (default)")
+    evaluate.add_argument("--tasks", default="lid", help="names or 'all' (default: lid)")
+    evaluate.add_argument("--trials", type=int, default=50, help="trials per cell (50)")
+    evaluate.add_argument("--workers", type=int, default=1, help="worker processes (1)")
+    evaluate.add_argument("--out", default="results", help="results folder (results/)")
+    evaluate.add_argument("--replays", type=int, default=0,
+                          help="Meshcat HTML replays of the first K trials per cell (0)")
+    evaluate.add_argument("--method", help="method name (default: the config's name)")
+    evaluate.add_argument("--seed0", type=int, default=10000,
+                          help="first trial seed (default 10000, past the training seeds)")
+    evaluate.add_argument("--duration", type=float, default=None,
+                          help="seconds per trial after homing (default: 40)")
+    evaluate.add_argument("--plot", nargs="+", metavar="JSON",
+                          help="only combine these results files into one plot and table")
+    evaluate.set_defaults(func=cmd_evaluate)
     return parser
 
 

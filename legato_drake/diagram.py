@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from pydrake.geometry import (
@@ -54,6 +55,9 @@ from legato_drake.systems.tracking_monitor import TrackingMonitor
 from legato_drake.systems.whole_body_ik import WholeBodyIK
 from legato_drake.tasks import Task, make_task
 
+if TYPE_CHECKING:  # torch is imported only when a policy is used
+    from legato_drake.systems.policy_controller import PolicyController
+
 
 @dataclass
 class LegatoDiagram:
@@ -65,7 +69,7 @@ class LegatoDiagram:
     scene_graph: SceneGraph
     robot: RobotHandles
     task: Task
-    controller: ScriptedDemonstrator | PoseStreamReplay
+    controller: ScriptedDemonstrator | PoseStreamReplay | PolicyController
     integrator: GripperTargetIntegrator
     ik: WholeBodyIK
     gripper: GripperActuation
@@ -105,6 +109,30 @@ def stereo_rig(plant: MultibodyPlant, robot: RobotHandles, scenario: Scenario) -
                      fov_y=float(np.radians(scenario.camera.fov_y_deg)))
 
 
+def object_bodies(plant: MultibodyPlant, robot: RobotHandles) -> list:
+    """The task's free bodies (not the robot's or the gripper's), in body-index order: the
+    bodies whose poses make up the ``object`` observation."""
+    free = [plant.get_body(i) for i in sorted(plant.GetFloatingBaseBodies())]
+    return [b for b in free if b.model_instance() not in (robot.robot, robot.gripper)]
+
+
+def _policy_controller(scenario: Scenario, plant: MultibodyPlant, robot: RobotHandles):
+    """The ``PolicyController`` of ``controller: policy`` (torch is imported only here)."""
+    from legato_drake.errors import ConfigError
+    from legato_drake.learning.checkpoint import load_checkpoint
+    from legato_drake.systems.policy_controller import PolicyController
+
+    ckpt = load_checkpoint(scenario.checkpoint)
+    if ckpt.config.obs_mode == "image":
+        if not scenario.camera.enabled:
+            raise ConfigError(f"camera.enabled must be true: checkpoint {scenario.checkpoint} "
+                              "is an image policy (obs_mode: image)")
+        return PolicyController(ckpt)
+    features = EpisodeRecorder(plant, robot.tcp_frame, images=False,
+                               object_bodies=object_bodies(plant, robot))
+    return PolicyController(ckpt, features)
+
+
 def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
                   script: Script | None = None, record: bool = False) -> LegatoDiagram:
     """Builds the closed-loop diagram of ``scenario``; with ``meshcat``, adds a visualizer.
@@ -123,6 +151,11 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
 
         controller = builder.AddNamedSystem(
             "pose_stream_replay", PoseStreamReplay(load_pose_stream(scenario.pose_stream)))
+    elif scenario.controller == "policy":
+        controller = builder.AddNamedSystem(
+            "policy_controller", _policy_controller(scenario, plant, robot))
+        if controller.obs_mode == "state":
+            builder.Connect(state, controller.get_plant_state_input_port())
     else:
         controller = builder.AddNamedSystem(
             "scripted_demonstrator", ScriptedDemonstrator(plant, task, scenario.seed, script))
@@ -134,6 +167,9 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
     builder.Connect(split.get_output_port(0), integrator.get_delta_input_port())
     gripper = builder.AddNamedSystem("gripper_actuation", GripperActuation())
     builder.Connect(split.get_output_port(1), gripper.get_grasp_input_port())
+    if scenario.controller == "policy" and controller.obs_mode == "state":
+        builder.Connect(integrator.GetOutputPort("X_WG_commanded"),
+                        controller.get_commanded_pose_input_port())
     builder.Connect(gripper.GetOutputPort("desired_state"),
                     plant.get_desired_state_input_port(robot.gripper))
 
@@ -173,13 +209,15 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
         camera = builder.AddNamedSystem("stereo_camera", StereoCamera(rig))
         builder.Connect(render_scene_graph.get_query_output_port(),
                         camera.get_geometry_query_input_port())
+        if scenario.controller == "policy":
+            for port in controller.get_image_input_ports():
+                builder.Connect(camera.GetOutputPort(port.get_name()), port)
 
     recorder = None
     if record:
-        free = [plant.get_body(i) for i in sorted(plant.GetFloatingBaseBodies())]
-        objects = [b for b in free if b.model_instance() not in (robot.robot, robot.gripper)]
         recorder = builder.AddNamedSystem("episode_recorder", EpisodeRecorder(
-            plant, robot.tcp_frame, images=camera is not None, object_bodies=objects))
+            plant, robot.tcp_frame, images=camera is not None,
+            object_bodies=object_bodies(plant, robot)))
         builder.Connect(controller.GetOutputPort("action"), recorder.get_action_input_port())
         builder.Connect(integrator.GetOutputPort("X_WG_commanded"),
                         recorder.get_commanded_pose_input_port())

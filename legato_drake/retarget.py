@@ -12,16 +12,15 @@ from __future__ import annotations
 import csv
 import io
 import json
-import multiprocessing
 from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from legato_drake.diagram import build_diagram
 from legato_drake.episode import simulate
 from legato_drake.files import atomic_write_text
+from legato_drake.parallel import parallel_map
 from legato_drake.scenario import Scenario
 from legato_drake.stats import wilson_interval
 from legato_drake.systems.scripted_demonstrator import Script
@@ -68,22 +67,14 @@ def _replay_job(job: tuple[str, str, int, Script]) -> dict:
     return replay(*job)
 
 
-def _map(function, jobs: list, workers: int, desc: str) -> list:
-    progress = dict(total=len(jobs), desc=desc, unit="episode", disable=None)
-    if workers > 1 and len(jobs) > 1:
-        with multiprocessing.get_context("spawn").Pool(workers) as pool:
-            return list(tqdm(pool.imap(function, jobs), **progress))
-    return [function(job) for job in tqdm(jobs, **progress)]
-
-
 def run_benchmark(embodiments: Iterable[str], tasks: Iterable[str], seeds: Iterable[int],
                   workers: int = 1) -> list[dict]:
     """Records Abstract trajectories and replays them on every embodiment; returns rows."""
     tasks, seeds, embodiments = list(tasks), list(seeds), list(embodiments)
     scripts = {(t, s): script for t, s, script in
-               _map(_record_job, [(t, s) for t in tasks for s in seeds], workers, "record")}
+               parallel_map(_record_job, [(t, s) for t in tasks for s in seeds], workers, "record")}
     jobs = [(e, t, s, scripts[t, s]) for e in embodiments for t in tasks for s in seeds]
-    return _map(_replay_job, jobs, workers, "replay")
+    return parallel_map(_replay_job, jobs, workers, "replay")
 
 
 def summarize(rows: list[dict]) -> list[list]:

@@ -6,6 +6,7 @@ Example ``scenario.yaml`` (every field is optional; the defaults are shown)::
     task: lid
     controller: scripted     # or replay (with pose_stream: poses.csv)
     pose_stream: ""
+    checkpoint: ""           # controller: policy runs this trained checkpoint
     seed: 0
     duration: 40.0
     camera: {enabled: true, width: 128, height: 128, fov_y_deg: 120.0}
@@ -22,7 +23,7 @@ from pydrake.common.yaml import yaml_load, yaml_load_typed
 
 from legato_drake.errors import ConfigError, unknown_name
 
-CONTROLLERS = ("scripted", "replay")
+CONTROLLERS = ("scripted", "replay", "policy")
 """Names accepted by ``Scenario.controller``."""
 
 
@@ -68,6 +69,9 @@ class Scenario:
     pose_stream: str = ""
     """Recorded 6-DoF gripper pose stream (CSV or NPZ, docs/data_format.md) that
     ``controller: replay`` plays; required by it."""
+    checkpoint: str = ""
+    """Trained policy checkpoint (``legato-drake train``'s ``best.pt``/``last.pt``) that
+    ``controller: policy`` runs; required by it."""
     seed: int = 0
     """Seeds the scene randomization and the demonstrator; same seed, same episode."""
     duration: float = 40.0
@@ -96,6 +100,11 @@ class Scenario:
         if self.controller == "replay" and not self.pose_stream:
             raise ConfigError(f"pose_stream{place} must name a pose stream file (CSV or NPZ) "
                               "when controller is 'replay'")
+        if self.controller == "policy" and not self.checkpoint:
+            raise ConfigError(f"checkpoint{place} must name a policy checkpoint file when "
+                              "controller is 'policy'")
+        if self.checkpoint and not Path(self.checkpoint).is_file():
+            raise ConfigError(f"checkpoint{place}: file not found: {self.checkpoint}")
         if self.pose_stream:
             from legato_drake.data.pose_stream import load_pose_stream
 

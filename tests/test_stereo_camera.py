@@ -26,7 +26,8 @@ _R_WC = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 
 def _camera_with_ball(ball_position, baseline=0.064):
-    """A camera rig at the world origin looking along +x, and one white ball."""
+    """A camera rig at the world origin looking along +x, and one white ball. Returns the
+    camera, its context, the diagram and the diagram's context."""
     builder = DiagramBuilder()
     scene_graph = builder.AddSystem(SceneGraph())
     scene_graph.AddRenderer(RENDERER_NAME, MakeRenderEngineVtk(
@@ -46,8 +47,7 @@ def _camera_with_ball(ball_position, baseline=0.064):
     builder.Connect(scene_graph.get_query_output_port(), camera.get_geometry_query_input_port())
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
-    _camera_with_ball.last_diagram = (diagram, context)
-    return camera, camera.GetMyContextFromRoot(context)
+    return camera, camera.GetMyContextFromRoot(context), diagram, context
 
 
 def _centroid(image):
@@ -57,7 +57,7 @@ def _centroid(image):
 
 
 def test_images_are_128x128x1_uint8():
-    camera, context = _camera_with_ball([0.5, 0, 0])
+    camera, context, *_ = _camera_with_ball([0.5, 0, 0])
     left, right = camera.render(context)
     for image in (left, right):
         assert image.shape == (128, 128, 1) and image.dtype == np.uint8
@@ -67,23 +67,22 @@ def test_images_are_128x128x1_uint8():
     ([0.5, 0.2, 0.0], "left"), ([0.5, -0.2, 0.0], "right"),
     ([0.5, 0.0, 0.2], "top"), ([0.5, 0.0, -0.2], "bottom")])
 def test_upright_and_not_mirrored(offset, expect):
-    camera, context = _camera_with_ball(offset)
+    camera, context, *_ = _camera_with_ball(offset)
     left, _ = camera.render(context)
     x, y = _centroid(left)
     assert {"left": x < 54, "right": x > 74, "top": y < 54, "bottom": y > 74}[expect]
 
 
 def test_stereo_disparity_has_the_right_sign():
-    camera, context = _camera_with_ball([0.3, 0.0, 0.0])
+    camera, context, *_ = _camera_with_ball([0.3, 0.0, 0.0])
     left, right = camera.render(context)
     # The ball straight ahead appears right of centre to the left camera, left to the right.
     assert _centroid(left)[0] > _centroid(right)[0] + 2
 
 
 def test_periodic_update_fills_the_output_ports():
-    camera, context = _camera_with_ball([0.5, 0.0, 0.0])
+    camera, context, diagram, root_context = _camera_with_ball([0.5, 0.0, 0.0])
     blank = camera.GetOutputPort("left_gray").Eval(context)
     assert blank.max() == 0
-    diagram, root_context = _camera_with_ball.last_diagram
     Simulator(diagram, root_context).AdvanceTo(0.01)  # the first periodic render, at t = 0
     assert camera.GetOutputPort("left_gray").Eval(context).max() > 128

@@ -1,0 +1,85 @@
+"""Policy inference time per 10 Hz step on the CPU (one torch thread, as in evaluation).
+
+Times the ``PolicyController``'s whole update (observation, network, RNN state) for the small
+state config, the small image config and the paper config (untrained weights: the time does not
+depend on them), median and p95 over --steps steps. The acceptance bar is 20 ms per step for
+the small configs. Usage:
+
+    python benchmarks/bench_policy.py [--steps 100] [--threads 1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+
+from legato_drake import conventions
+from legato_drake.diagram import build_plant, object_bodies
+from legato_drake.learning.checkpoint import Checkpoint
+from legato_drake.learning.config import load_config
+from legato_drake.learning.policies import RecurrentGMMPolicy
+from legato_drake.report import format_table
+from legato_drake.scenario import Scenario
+from legato_drake.systems.episode_recorder import EpisodeRecorder
+from legato_drake.systems.policy_controller import PolicyController
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+DIMS = {"delta_positions": 6, "delta_eulers": 6, "tcp_commanded": 7, "tcp_measured": 7,
+        "object": 21, "fingers": 2, "actions": 7}
+
+
+def time_controller(config_name: str, steps: int) -> list[float]:
+    """Seconds per controller update of ``configs/<config_name>.yaml``."""
+    config = load_config(CONFIGS / f"{config_name}.yaml")
+    stats = {k: {"mean": np.zeros(d, np.float32), "std": np.ones(d, np.float32)}
+             for k, d in DIMS.items()}
+    ckpt = Checkpoint(config, stats, RecurrentGMMPolicy(config, stats).eval())
+    plant, _, robot, _ = build_plant(Scenario(embodiment="abstract"), DiagramBuilder())
+    if config.obs_mode == "state":
+        features = EpisodeRecorder(plant, robot.tcp_frame, images=False,
+                                   object_bodies=object_bodies(plant, robot))
+        controller = PolicyController(ckpt, features)
+        context = controller.CreateDefaultContext()
+        controller.get_plant_state_input_port().FixValue(
+            context, plant.GetPositionsAndVelocities(plant.CreateDefaultContext()))
+        controller.get_commanded_pose_input_port().FixValue(
+            context, [0.1, -0.3, 0.8, 1.0, 0.0, 0.0, 0.0])
+    else:
+        controller = PolicyController(ckpt)
+        context = controller.CreateDefaultContext()
+        rng = np.random.default_rng(0)
+        for port in controller.get_image_input_ports():
+            port.FixValue(context, rng.integers(0, 256, (128, 128, 1), dtype=np.uint8))
+    simulator = Simulator(controller, context)
+    times = []
+    for k in range(steps + 3):
+        start = time.perf_counter()
+        simulator.AdvanceTo(conventions.HOMING_DURATION + k * conventions.POLICY_PERIOD + 0.002)
+        times.append(time.perf_counter() - start)
+    return times[3:]  # the first steps warm up
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=100)
+    parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--configs", default="legato_small_state,legato_small_image,"
+                                             "legato_paper")
+    args = parser.parse_args()
+    torch.set_num_threads(args.threads)
+    rows = []
+    for name in args.configs.split(","):
+        times = 1e3 * np.array(time_controller(name, args.steps))
+        rows.append([name, float(np.median(times)), float(np.percentile(times, 95)),
+                     "yes" if np.median(times) <= 20.0 else "no"])
+    print(format_table(["config", "median ms/step", "p95 ms/step", "<= 20 ms"], rows))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,84 @@
+"""Checkpoints: the config, the normalisation statistics, the step, the model and optimizer.
+
+A checkpoint is a ``torch.save``d dict written atomically (a reader never sees half a file)::
+
+    {"format": "legato_drake.checkpoint", "version": 1, "config": {...LearningConfig...},
+     "stats": {key: {"mean": [...], "std": [...]}}, "step": int, "best_valid": float,
+     "model": state_dict, "optimizer": state_dict | None, "train_seeds": [int, ...],
+     "data": str (the dataset it was trained on)}
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import torch
+
+from legato_drake.errors import LegatoError
+from legato_drake.files import atomic_write_bytes
+from legato_drake.learning.config import LearningConfig, config_from_dict
+from legato_drake.learning.normalization import stats_from_lists, stats_to_lists
+from legato_drake.learning.policies import RecurrentGMMPolicy
+
+FORMAT = "legato_drake.checkpoint"
+VERSION = 1
+
+
+class CheckpointError(LegatoError):
+    """A checkpoint file is missing, unreadable or not one of ours."""
+
+
+@dataclass
+class Checkpoint:
+    """What a checkpoint holds (the model as a built policy)."""
+
+    config: LearningConfig
+    stats: dict
+    policy: RecurrentGMMPolicy
+    step: int = 0
+    best_valid: float = float("inf")
+    optimizer: dict | None = None
+    train_seeds: list[int] = field(default_factory=list)
+    data: str = ""
+
+
+def save_checkpoint(path: str | Path, ckpt: Checkpoint,
+                    optimizer: torch.optim.Optimizer | None = None) -> None:
+    """Writes ``ckpt`` (with ``optimizer``'s state if given) to ``path`` atomically."""
+    payload = {
+        "format": FORMAT, "version": VERSION, "config": ckpt.config.to_dict(),
+        "stats": stats_to_lists(ckpt.stats), "step": int(ckpt.step),
+        "best_valid": float(ckpt.best_valid),
+        "model": {k: v.detach().cpu() for k, v in ckpt.policy.state_dict().items()},
+        "optimizer": optimizer.state_dict() if optimizer is not None else ckpt.optimizer,
+        "train_seeds": [int(s) for s in ckpt.train_seeds], "data": str(ckpt.data),
+    }
+    buffer = io.BytesIO()
+    torch.save(payload, buffer)
+    atomic_write_bytes(Path(path), buffer.getvalue())
+
+
+def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
+    """Reads a checkpoint and rebuilds its policy (in eval mode, on ``device``)."""
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"checkpoint not found: {path}")
+    try:
+        payload = torch.load(path, map_location=device, weights_only=False)
+    except Exception as e:  # noqa: BLE001 - torch raises many kinds on a bad file
+        raise CheckpointError(f"cannot read checkpoint {path}: {e}") from None
+    if not isinstance(payload, dict) or payload.get("format") != FORMAT:
+        raise CheckpointError(f"{path} is not a legato_drake checkpoint")
+    if payload.get("version") != VERSION:
+        raise CheckpointError(f"{path}: checkpoint version {payload.get('version')} is not "
+                              f"{VERSION}")
+    config = config_from_dict(payload["config"], str(path))
+    stats = stats_from_lists(payload["stats"])
+    policy = RecurrentGMMPolicy(config, stats).to(device)
+    policy.load_state_dict(payload["model"])
+    policy.eval()
+    return Checkpoint(config, stats, policy, payload["step"], payload["best_valid"],
+                      payload["optimizer"], list(payload.get("train_seeds", [])),
+                      payload.get("data", ""))

@@ -1,0 +1,214 @@
+"""The one configuration object of a training run, loaded from and saved to YAML.
+
+Every checkpoint holds the whole ``LearningConfig`` it was trained with, so a checkpoint alone
+rebuilds its policy. A YAML file sets any subset of the fields (the rest keep their defaults);
+``overrides`` (``--set field=value`` on the command line) change single fields after loading,
+e.g. ``--set invariant_weight=0`` trains the same network without L_invar (the "SE3" ablation).
+"""
+
+# No ``from __future__ import annotations``: the field checks read the real types.
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from pydrake.common.yaml import yaml_dump, yaml_load
+
+from legato_drake.errors import ConfigError
+
+ALGOS = ("legato", "bc_rnn")
+OBS_MODES = ("image", "state")
+ENCODERS = ("resnet18", "small")
+STATE_KEYS = ("tcp_commanded", "tcp_measured", "object", "fingers")
+"""Privileged observations a ``state`` policy may use (what the EpisodeRecorder records)."""
+
+
+@dataclass
+class LearningConfig:
+    """A policy's architecture and how it is trained (SPEC §8)."""
+
+    name: str = "legato"
+    """Run / method name (used as the method name in evaluation tables by default)."""
+    algo: str = "legato"
+    """``legato``: GMM over the 6 pose-delta dims + a 2-class grasp head; ``bc_rnn``: one GMM
+    over all 7 action dims, grasp thresholded at 0.5."""
+    obs_mode: str = "image"
+    """``image``: the two gripper images + pose-delta history (the paper's); ``state``: the
+    privileged state features ``state_keys`` + pose-delta history (fast, for CPU)."""
+    state_keys: list[str] = field(default_factory=lambda: ["tcp_commanded", "object",
+                                                           "fingers"])
+    """Privileged observations of the ``state`` mode (``STATE_KEYS``)."""
+    encoder: str = "resnet18"
+    """Image trunk: ``resnet18`` (the paper's, not pretrained, 1 channel) or ``small``."""
+    encoder_channels: list[int] = field(default_factory=lambda: [16, 32, 32])
+    """Channels of the ``small`` trunk's stride-2 conv layers."""
+    keypoints: int = 32
+    """Spatial-softmax keypoints per camera."""
+    feature_dim: int = 64
+    """Per-camera feature size after the keypoints' linear layer."""
+    rnn_layers: int = 3
+    rnn_hidden: int = 400
+    mlp_dims: list[int] = field(default_factory=lambda: [2048, 2048, 2048])
+    gmm_modes: int = 5
+    min_std: float = 1e-4
+    """Added to the softplus of the GMM scales."""
+    seq_length: int = 20
+    """Training sequence length; the RNN state is reset every ``seq_length`` steps at
+    rollout too."""
+    batch_size: int = 16
+    lr: float = 1e-4
+    weight_decay: float = 0.0
+    grad_clip: float = 0.0
+    """Clip the gradient norm to this (0: no clipping)."""
+    steps: int = 1_200_000
+    """Optimizer steps in all (the paper: 6000 epochs x 200 steps)."""
+    nll_weight: float = 1.0
+    grasp_weight: float = 0.2
+    invariant_weight: float = 0.005
+    """Weight of L_invar; 0 trains without it (the paper's "LEGATO (SE3)" / plain BC-RNN)."""
+    valid_every: int = 200
+    """Steps between validation losses (and ``best.pt`` updates)."""
+    valid_batches: int = 8
+    checkpoint_every: int = 200
+    """Steps between ``last.pt`` writes (also written at the end)."""
+    seed: int = 0
+    num_workers: int = 0
+    """DataLoader worker processes."""
+    cpu_threads: int = 1
+    """torch threads when training on the CPU (0: torch's default). One is fastest for the
+    small networks on a shared 2-core machine."""
+    cache_images: bool = False
+    """Hold all images in memory (fast, about 33 kB per sample)."""
+
+    def validate(self, where: str = "") -> "LearningConfig":
+        """Checks every field; raises ConfigError naming the field (and ``where``)."""
+        place = f" in {where}" if where else ""
+
+        def bad(name: str, message: str) -> ConfigError:
+            return ConfigError(f"{name}{place} {message}")
+
+        for name, allowed in (("algo", ALGOS), ("obs_mode", OBS_MODES), ("encoder", ENCODERS)):
+            if getattr(self, name) not in allowed:
+                raise bad(name, f"must be one of {', '.join(allowed)}; got "
+                                f"{getattr(self, name)!r}")
+        unknown = [k for k in self.state_keys if k not in STATE_KEYS]
+        if unknown or (self.obs_mode == "state" and not self.state_keys):
+            raise bad("state_keys", f"must be a non-empty list of {', '.join(STATE_KEYS)}; got "
+                                    f"{self.state_keys!r}")
+        for name in ("keypoints", "feature_dim", "rnn_layers", "rnn_hidden", "gmm_modes",
+                     "seq_length", "batch_size", "steps", "valid_every", "valid_batches",
+                     "checkpoint_every"):
+            if getattr(self, name) < 1:
+                raise bad(name, f"must be a positive integer, got {getattr(self, name)}")
+        if any(c < 1 for c in self.encoder_channels) or not self.encoder_channels:
+            raise bad("encoder_channels", f"must be positive integers, got "
+                                          f"{self.encoder_channels}")
+        if any(d < 1 for d in self.mlp_dims):
+            raise bad("mlp_dims", f"must be positive integers, got {self.mlp_dims}")
+        for name in ("lr", "min_std"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
+                raise bad(name, f"must be a positive number, got {getattr(self, name)}")
+        for name in ("weight_decay", "grad_clip", "nll_weight", "grasp_weight",
+                     "invariant_weight"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
+                raise bad(name, f"must be a non-negative number, got {getattr(self, name)}")
+        for name in ("num_workers", "seed", "cpu_threads"):
+            if getattr(self, name) < 0:
+                raise bad(name, f"must be a non-negative integer, got {getattr(self, name)}")
+        return self
+
+    @property
+    def obs_keys(self) -> tuple[str, ...]:
+        """The dataset observations the policy reads, in a fixed order."""
+        history = ("delta_positions", "delta_eulers")
+        if self.obs_mode == "image":
+            return ("left_gray", "right_gray", *history)
+        return (*history, *self.state_keys)
+
+    def to_dict(self) -> dict:
+        """A plain dict (for checkpoints and YAML)."""
+        return dataclasses.asdict(self)
+
+
+_FIELDS = {f.name: f for f in dataclasses.fields(LearningConfig)}
+
+
+def _coerce(name: str, value: object, where: str) -> object:
+    """Checks one raw YAML value against the field's type; returns it in that type."""
+    kind = _FIELDS[name].type
+    place = f" in {where}" if where else ""
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{name}{place} must be true or false, got {value!r}")
+    elif kind is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{name}{place} must be an integer, got {value!r}")
+    elif kind is float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ConfigError(f"{name}{place} must be a number, got {value!r}")
+        value = float(value)
+    elif kind is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{name}{place} must be a string, got {value!r}")
+    else:  # list[int] or list[str]
+        item = int if kind == list[int] else str
+        if not isinstance(value, list) or not all(
+                isinstance(v, item) and not isinstance(v, bool) for v in value):
+            raise ConfigError(f"{name}{place} must be a list of {item.__name__}, got {value!r}")
+        value = list(value)
+    return value
+
+
+def config_from_dict(raw: object, where: str = "") -> LearningConfig:
+    """Builds a validated config from a mapping of fields; an unknown field is an error
+    naming it, ``where`` (the file) and the valid fields."""
+    place = f" in {where}" if where else ""
+    if raw is None:
+        raw = {}
+    if not isinstance(raw, dict):
+        raise ConfigError(f"the learning config{place} must be a mapping of fields, got "
+                          f"{raw!r}")
+    for key in raw:
+        if key not in _FIELDS:
+            raise ConfigError(f"unknown field {key!r}{place}; valid fields: "
+                              f"{', '.join(_FIELDS)}")
+    values = {k: _coerce(k, v, where) for k, v in raw.items()}
+    return LearningConfig(**values).validate(where)
+
+
+def _parse_value(text: str) -> object:
+    try:
+        return yaml_load(data=f"value: {text}")["value"]
+    except Exception:  # noqa: BLE001 - any YAML problem: keep the text as a string
+        return text
+
+
+def apply_overrides(config: LearningConfig, overrides: list[str] | None,
+                    where: str = "--set") -> LearningConfig:
+    """``["invariant_weight=0", "steps=500"]`` -> a copy with those fields set (YAML values)."""
+    raw = config.to_dict()
+    for item in overrides or []:
+        if "=" not in item:
+            raise ConfigError(f"{where} {item!r}: expected FIELD=VALUE")
+        key, text = item.split("=", 1)
+        raw[key.strip()] = _parse_value(text.strip())
+    return config_from_dict(raw, where)
+
+
+def load_config(path: str | Path, overrides: list[str] | None = None) -> LearningConfig:
+    """Loads a learning config YAML file (errors name the file and the field)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"learning config file not found: {path}")
+    try:
+        raw = yaml_load(data=path.read_text()) if path.read_text().strip() else {}
+    except Exception as e:  # noqa: BLE001 - the YAML parser's many error types
+        raise ConfigError(f"malformed learning config {path}: {e}") from None
+    return apply_overrides(config_from_dict(raw, str(path)), overrides)
+
+
+def save_config(config: LearningConfig, path: str | Path) -> None:
+    """Writes ``config`` as YAML (atomically)."""
+    from legato_drake.files import atomic_write_text
+
+    atomic_write_text(Path(path), yaml_dump(config.to_dict()))

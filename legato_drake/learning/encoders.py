@@ -1,0 +1,107 @@
+"""Image encoders: a conv trunk, spatial-softmax keypoints and a linear layer per camera.
+
+``ImageEncoder`` maps one 1-channel image (B, 1, H, W) in [0, 1] to a feature (B, feature_dim):
+conv trunk (ResNet-18 without its pooling and classifier, or a small stride-2 stack), a 1x1
+conv to K keypoint maps, a spatial softmax giving each map's expected (x, y) in [-1, 1], and a
+linear layer from the 2K coordinates (robomimic's ``VisualCore``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+from torch import nn
+
+
+def image_to_tensor(image: np.ndarray) -> torch.Tensor:
+    """The one image preprocessing of training and rollout: a uint8 (H, W, 1) (or (..., H, W,
+    1)) grayscale image -> float32 (..., 1, H, W) in [0, 1] (what ``DemoSequenceDataset``
+    returns with ``image_dtype="float"``)."""
+    array = np.ascontiguousarray(np.moveaxis(np.asarray(image, dtype=np.uint8), -1, -3))
+    return torch.from_numpy(array).float() / 255.0
+
+
+class BasicBlock(nn.Module):
+    """ResNet's two-conv residual block."""
+
+    def __init__(self, cin: int, cout: int, stride: int):
+        super().__init__()
+        self.conv1 = nn.Conv2d(cin, cout, 3, stride, 1, bias=False)
+        self.bn1 = nn.BatchNorm2d(cout)
+        self.conv2 = nn.Conv2d(cout, cout, 3, 1, 1, bias=False)
+        self.bn2 = nn.BatchNorm2d(cout)
+        self.down = None
+        if stride != 1 or cin != cout:
+            self.down = nn.Sequential(nn.Conv2d(cin, cout, 1, stride, bias=False),
+                                      nn.BatchNorm2d(cout))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        identity = x if self.down is None else self.down(x)
+        y = torch.relu(self.bn1(self.conv1(x)))
+        return torch.relu(self.bn2(self.conv2(y)) + identity)
+
+
+def resnet18_trunk(in_channels: int = 1) -> tuple[nn.Module, int]:
+    """ResNet-18's conv layers (not pretrained) for ``in_channels`` input; (trunk, out
+    channels). A 128x128 image gives 512 x 4 x 4."""
+    layers: list[nn.Module] = [nn.Conv2d(in_channels, 64, 7, 2, 3, bias=False),
+                               nn.BatchNorm2d(64), nn.ReLU(inplace=True),
+                               nn.MaxPool2d(3, 2, 1)]
+    cin = 64
+    for cout, stride in ((64, 1), (128, 2), (256, 2), (512, 2)):
+        layers += [BasicBlock(cin, cout, stride), BasicBlock(cout, cout, 1)]
+        cin = cout
+    return nn.Sequential(*layers), cin
+
+
+def small_trunk(channels: list[int], in_channels: int = 1) -> tuple[nn.Module, int]:
+    """A small CPU trunk: stride-2 3x3 convs with ReLU (128x128 -> 16x16 with 3 layers)."""
+    layers: list[nn.Module] = []
+    cin = in_channels
+    for cout in channels:
+        layers += [nn.Conv2d(cin, cout, 3, 2, 1), nn.ReLU(inplace=True)]
+        cin = cout
+    return nn.Sequential(*layers), cin
+
+
+class SpatialSoftmax(nn.Module):
+    """Keypoints: a 1x1 conv to K maps, a softmax over each map's pixels, and the expected
+    pixel coordinates (x, y) in [-1, 1] (x along the width, y along the height); (B, C, H, W)
+    -> (B, K, 2)."""
+
+    def __init__(self, channels: int, keypoints: int):
+        super().__init__()
+        self.project = nn.Conv2d(channels, keypoints, 1)
+        self.keypoints = keypoints
+
+    @staticmethod
+    def expected_xy(maps: torch.Tensor) -> torch.Tensor:
+        """(B, K, H, W) logits -> (B, K, 2) expected (x, y) of their softmax."""
+        B, K, H, W = maps.shape
+        attention = torch.softmax(maps.reshape(B, K, H * W), -1).reshape(B, K, H, W)
+        xs = torch.linspace(-1.0, 1.0, W, device=maps.device, dtype=maps.dtype)
+        ys = torch.linspace(-1.0, 1.0, H, device=maps.device, dtype=maps.dtype)
+        x = (attention.sum(-2) * xs).sum(-1)
+        y = (attention.sum(-1) * ys).sum(-1)
+        return torch.stack([x, y], -1)
+
+    def forward(self, features: torch.Tensor) -> torch.Tensor:
+        return self.expected_xy(self.project(features))
+
+
+class ImageEncoder(nn.Module):
+    """One camera's encoder: (B, 1, H, W) in [0, 1] -> (B, feature_dim)."""
+
+    def __init__(self, trunk: str = "resnet18", keypoints: int = 32, feature_dim: int = 64,
+                 channels: list[int] | None = None):
+        super().__init__()
+        if trunk == "resnet18":
+            self.trunk, out = resnet18_trunk(1)
+        else:
+            self.trunk, out = small_trunk(list(channels or [16, 32, 32]), 1)
+        self.keypoints = SpatialSoftmax(out, keypoints)
+        self.linear = nn.Linear(2 * keypoints, feature_dim)
+
+    def forward(self, image: torch.Tensor) -> torch.Tensor:
+        points = self.keypoints(self.trunk(image))
+        return self.linear(points.flatten(1))

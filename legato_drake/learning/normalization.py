@@ -1,0 +1,54 @@
+"""Per-dimension mean/std normalisation of low-dim observations and actions.
+
+The statistics are computed once from the training split and saved in every checkpoint; the
+policy normalises its raw inputs itself (``Normalizer`` is a module with buffers), so training
+and rollout feed the same raw values.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+
+import numpy as np
+import torch
+from torch import nn
+
+MIN_STD = 1e-6
+"""Dimensions with a smaller standard deviation (constants) are scaled by 1."""
+
+
+def compute_stats(arrays: Iterable[np.ndarray]) -> dict[str, np.ndarray]:
+    """``{"mean", "std"}`` (float32, per last-axis dim) over all rows of ``arrays``."""
+    data = np.concatenate([np.asarray(a, dtype=np.float64).reshape(-1, np.shape(a)[-1])
+                           for a in arrays])
+    std = data.std(0)
+    std[std < MIN_STD] = 1.0
+    return {"mean": data.mean(0).astype(np.float32), "std": std.astype(np.float32)}
+
+
+def stats_to_lists(stats: Mapping[str, Mapping[str, np.ndarray]]) -> dict:
+    """JSON/checkpoint-friendly copy of a ``{key: {"mean", "std"}}`` mapping."""
+    return {k: {s: np.asarray(v).tolist() for s, v in d.items()} for k, d in stats.items()}
+
+
+def stats_from_lists(raw: Mapping[str, Mapping[str, list]]) -> dict[str, dict[str, np.ndarray]]:
+    """Inverse of ``stats_to_lists``."""
+    return {k: {s: np.asarray(v, dtype=np.float32) for s, v in d.items()}
+            for k, d in raw.items()}
+
+
+class Normalizer(nn.Module):
+    """``(x - mean) / std`` and back, for one vector quantity (buffers: saved with the model)."""
+
+    def __init__(self, mean: np.ndarray, std: np.ndarray):
+        super().__init__()
+        self.register_buffer("mean", torch.as_tensor(np.asarray(mean), dtype=torch.float32))
+        self.register_buffer("std", torch.as_tensor(np.asarray(std), dtype=torch.float32))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """Normalises ``x`` (..., D)."""
+        return (x - self.mean) / self.std
+
+    def inverse(self, y: torch.Tensor) -> torch.Tensor:
+        """Un-normalises ``y`` (..., D)."""
+        return y * self.std + self.mean

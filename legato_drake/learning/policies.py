@@ -1,0 +1,173 @@
+"""The LEGATO hybrid policy and the BC-RNN baseline: encoders -> LSTM -> MLP -> GMM heads.
+
+``RecurrentGMMPolicy`` (SPEC §8) reads raw observations (it normalises low-dim inputs and
+actions itself with the training statistics it holds as buffers):
+
+* image mode: per camera a conv trunk + spatial softmax + linear (``encoders.ImageEncoder``),
+  concatenated with the 12 pose-delta inputs; state mode: the privileged state features
+  instead of the images.
+* an LSTM, an MLP (ReLU), then the heads:
+
+  - ``legato``: a ``gmm_modes``-component GMM over the 6 pose-delta dims (softplus scales +
+    ``min_std``) and a separate 2-class grasp head (logits; cross-entropy on the logits);
+  - ``bc_rnn``: one GMM over all 7 action dims; the grasp is its 7th dim thresholded at 0.5.
+
+Loss = nll_weight * NLL + grasp_weight * CE + invariant_weight * L_invar, where L_invar
+(``invariants.invariant_loss``) compares the DHB invariants of the demonstrated history plus
+the *predicted* action with those of the history plus the demonstrated action; the prediction
+is the mean of the most likely GMM component (``gmm_mean_of_most_likely_mode``), which is
+differentiable w.r.t. the means, so L_invar trains the heads, the LSTM and the encoders.
+Rollout uses the same low-noise mode.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+import torch.nn.functional as F  # noqa: N812 - the usual torch name
+from torch import distributions as D  # noqa: N812
+from torch import nn
+
+from legato_drake.invariants import (
+    gmm_mean_of_most_likely_mode,
+    history_from_observations,
+    invariant_loss,
+)
+from legato_drake.learning.config import LearningConfig
+from legato_drake.learning.encoders import ImageEncoder
+from legato_drake.learning.normalization import Normalizer
+
+IMAGE_KEYS = ("left_gray", "right_gray")
+Hidden = tuple[torch.Tensor, torch.Tensor]
+
+
+@dataclass
+class PolicyOutput:
+    """The heads' outputs for (B, T) steps (normalised action space)."""
+
+    logits: torch.Tensor
+    """(B, T, K) mixture logits."""
+    means: torch.Tensor
+    """(B, T, K, D) component means."""
+    scales: torch.Tensor
+    """(B, T, K, D) component standard deviations."""
+    grasp_logits: torch.Tensor | None
+    """(B, T, 2) grasp logits (LEGATO only)."""
+
+    def distribution(self) -> D.MixtureSameFamily:
+        """The GMM over the normalised action dims."""
+        return D.MixtureSameFamily(D.Categorical(logits=self.logits),
+                                   D.Independent(D.Normal(self.means, self.scales), 1))
+
+
+def _masked_mean(values: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    mask = mask.to(values.dtype)
+    return (values * mask).sum() / mask.sum().clamp(min=1.0)
+
+
+class RecurrentGMMPolicy(nn.Module):
+    """LEGATO (``algo: legato``) or BC-RNN (``algo: bc_rnn``); see the module docstring."""
+
+    def __init__(self, config: LearningConfig, stats: Mapping[str, Mapping[str, np.ndarray]]):
+        super().__init__()
+        self.config = config
+        self.image_keys = [k for k in config.obs_keys if k in IMAGE_KEYS]
+        self.low_dim_keys = [k for k in config.obs_keys if k not in IMAGE_KEYS]
+        missing = [k for k in (*self.low_dim_keys, "actions") if k not in stats]
+        if missing:
+            raise ValueError(f"normalisation statistics lack {', '.join(missing)}")
+        self.normalizers = nn.ModuleDict({
+            k: Normalizer(stats[k]["mean"], stats[k]["std"])
+            for k in (*self.low_dim_keys, "actions")})
+        self.encoders = nn.ModuleDict({
+            k: ImageEncoder(config.encoder, config.keypoints, config.feature_dim,
+                            config.encoder_channels) for k in self.image_keys})
+        in_dim = sum(len(stats[k]["mean"]) for k in self.low_dim_keys)
+        in_dim += config.feature_dim * len(self.image_keys)
+        self.rnn = nn.LSTM(in_dim, config.rnn_hidden, config.rnn_layers, batch_first=True)
+        layers: list[nn.Module] = []
+        width = config.rnn_hidden
+        for dim in config.mlp_dims:
+            layers += [nn.Linear(width, dim), nn.ReLU()]
+            width = dim
+        self.mlp = nn.Sequential(*layers)
+        self.action_dims = 6 if config.algo == "legato" else 7
+        K = config.gmm_modes
+        self.logits_head = nn.Linear(width, K)
+        self.means_head = nn.Linear(width, K * self.action_dims)
+        self.scales_head = nn.Linear(width, K * self.action_dims)
+        self.grasp_head = nn.Linear(width, 2) if config.algo == "legato" else None
+
+    def features(self, obs: Mapping[str, torch.Tensor]) -> torch.Tensor:
+        """Raw observations (B, T, ...) -> the LSTM's input (B, T, F)."""
+        parts = []
+        for key in self.image_keys:
+            image = obs[key]
+            B, T = image.shape[:2]
+            parts.append(self.encoders[key](image.reshape(B * T, *image.shape[2:]))
+                         .reshape(B, T, -1))
+        parts += [self.normalizers[k](obs[k]) for k in self.low_dim_keys]
+        return torch.cat(parts, -1)
+
+    def forward(self, obs: Mapping[str, torch.Tensor], hidden: Hidden | None = None
+                ) -> tuple[PolicyOutput, Hidden]:
+        """The heads' outputs for raw observations (B, T, ...), and the new RNN state."""
+        y, hidden = self.rnn(self.features(obs), hidden)
+        y = self.mlp(y)
+        B, T = y.shape[:2]
+        K, Dm = self.config.gmm_modes, self.action_dims
+        means = self.means_head(y).reshape(B, T, K, Dm)
+        scales = F.softplus(self.scales_head(y)).reshape(B, T, K, Dm) + self.config.min_std
+        grasp = self.grasp_head(y) if self.grasp_head is not None else None
+        return PolicyOutput(self.logits_head(y), means, scales, grasp), hidden
+
+    def mode_action(self, out: PolicyOutput) -> torch.Tensor:
+        """The low-noise action (B, T, 7) in raw units: the mean of the most likely component
+        (differentiable w.r.t. the means), grasp in {0, 1}."""
+        action_norm = self.normalizers["actions"]
+        mean = gmm_mean_of_most_likely_mode(out.logits, out.means)
+        delta = mean[..., :6] * action_norm.std[:6] + action_norm.mean[:6]
+        if out.grasp_logits is not None:
+            grasp = out.grasp_logits.argmax(-1).to(delta.dtype)
+        else:
+            grasp = (mean[..., 6] * action_norm.std[6] + action_norm.mean[6] >= 0.5)
+            grasp = grasp.to(delta.dtype)
+        return torch.cat([delta, grasp[..., None]], -1)
+
+    def losses(self, batch: Mapping) -> dict[str, torch.Tensor]:
+        """The loss terms of a batch of sequences (``DemoSequenceDataset`` items, collated):
+        ``nll``, ``ce`` (0 for BC-RNN), ``invar`` and the weighted ``total``; padded steps
+        are left out."""
+        cfg = self.config
+        obs, actions = batch["obs"], batch["actions"]
+        mask = batch["pad_mask"]
+        out, _ = self(obs)
+        target = self.normalizers["actions"](actions)[..., :self.action_dims]
+        nll = _masked_mean(-out.distribution().log_prob(target), mask)
+        if out.grasp_logits is not None:
+            ce_steps = F.cross_entropy(out.grasp_logits.flatten(0, 1),
+                                       (actions[..., 6] > 0.5).long().flatten(),
+                                       reduction="none").reshape(mask.shape)
+            ce = _masked_mean(ce_steps, mask)
+        else:
+            ce = torch.zeros((), dtype=nll.dtype, device=nll.device)
+        if cfg.invariant_weight > 0:
+            history = history_from_observations(obs["delta_positions"], obs["delta_eulers"])
+            predicted = self.mode_action(out)[..., :6]
+            invar = _masked_mean(invariant_loss(history, predicted, actions[..., :6],
+                                                reduction="none"), mask)
+        else:
+            invar = torch.zeros((), dtype=nll.dtype, device=nll.device)
+        total = cfg.nll_weight * nll + cfg.grasp_weight * ce + cfg.invariant_weight * invar
+        return {"nll": nll, "ce": ce, "invar": invar, "total": total}
+
+    @torch.no_grad()
+    def act(self, obs: Mapping[str, torch.Tensor], hidden: Hidden | None = None
+            ) -> tuple[torch.Tensor, Hidden]:
+        """One rollout step: raw observations (B, ...) without a time axis -> the low-noise
+        action (B, 7) and the new RNN state."""
+        out, hidden = self({k: v[:, None] for k, v in obs.items()}, hidden)
+        return self.mode_action(out)[:, 0], hidden

@@ -1,0 +1,243 @@
+"""The training loop: seeded, resumable, logged, checkpointed atomically.
+
+``train(config, data, out)`` writes into ``out``:
+
+* ``config.yaml``: the run's config (also inside every checkpoint);
+* ``log.csv``: one row per step (``step, nll, ce, invar, total, lr``) and, every
+  ``valid_every`` steps, the validation losses (``valid_*`` columns; empty otherwise);
+* ``last.pt`` (every ``checkpoint_every`` steps and at the end) and ``best.pt`` (lowest
+  validation total loss), each with the config, the normalisation statistics, the step and
+  the optimizer state; TensorBoard events too if ``tensorboard`` happens to be installed.
+
+The batch of step s is drawn by ``numpy.random.default_rng([seed, s])``, so a run resumed from
+``last.pt`` sees exactly the batches an uninterrupted run would have seen (and, on CPU, gives
+the same losses).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import logging
+import math
+import random
+from collections.abc import Iterator
+from pathlib import Path
+
+import h5py
+import numpy as np
+import torch
+from torch.utils.data import DataLoader, Sampler
+
+from legato_drake.data.layout import DatasetError, open_dataset, sorted_demos
+from legato_drake.data.torch_dataset import DemoSequenceDataset
+from legato_drake.errors import ConfigError
+from legato_drake.files import atomic_write_text
+from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
+from legato_drake.learning.config import LearningConfig, config_from_dict, save_config
+from legato_drake.learning.normalization import compute_stats
+from legato_drake.learning.policies import RecurrentGMMPolicy
+
+log = logging.getLogger(__name__)
+
+LOG_COLUMNS = ("step", "nll", "ce", "invar", "total", "lr",
+               "valid_nll", "valid_ce", "valid_invar", "valid_total")
+VALID_SEED = 7919
+"""Seeds the (fixed) validation batches."""
+
+
+class StepBatchSampler(Sampler[list[int]]):
+    """The batches of steps ``start .. stop - 1``: batch s = ``batch_size`` distinct indices
+    drawn by ``default_rng([seed, s])`` (independent of where a run was resumed)."""
+
+    def __init__(self, n: int, batch_size: int, seed: int, start: int, stop: int):
+        self.n, self.batch_size, self.seed = n, batch_size, seed
+        self.start, self.stop = start, stop
+
+    def __len__(self) -> int:
+        return max(self.stop - self.start, 0)
+
+    def __iter__(self) -> Iterator[list[int]]:
+        for step in range(self.start, self.stop):
+            rng = np.random.default_rng([self.seed, step])
+            yield rng.choice(self.n, self.batch_size, replace=self.n < self.batch_size).tolist()
+
+
+def seed_everything(seed: int) -> None:
+    """Seeds Python, numpy and torch (parameter initialisation)."""
+    random.seed(seed)
+    np.random.seed(seed % 2**32)
+    torch.manual_seed(seed)
+
+
+def check_data(path: Path, config: LearningConfig) -> list[int]:
+    """Clear errors before training: a missing file, observations the config needs but the
+    file lacks (e.g. images in a state-only dataset). Returns the demos' scene seeds."""
+    if not path.is_file():
+        raise DatasetError(f"dataset file not found: {path}")
+    with open_dataset(path) as f:
+        names = sorted_demos(f["data"])
+        if not names:
+            raise DatasetError(f"{path} holds no demos")
+        available = set(f["data"][names[0]]["obs"])
+        missing = [k for k in config.obs_keys if k not in available]
+        if missing:
+            hint = (" (a state-only dataset: collect with the camera, or use obs_mode: state)"
+                    if any(k.endswith("_gray") for k in missing) else "")
+            raise ConfigError(f"obs_mode {config.obs_mode!r} needs observation(s) "
+                              f"{', '.join(missing)}, which {path} lacks{hint}; it has "
+                              f"{', '.join(sorted(available))}")
+        return [int(f["data"][n].attrs.get("seed", -1)) for n in names]
+
+
+def dataset_stats(path: Path, config: LearningConfig) -> dict[str, dict[str, np.ndarray]]:
+    """Normalisation statistics of the low-dim observations and actions of the train split."""
+    from legato_drake.data.layout import mask_names
+
+    keys = [k for k in config.obs_keys if not k.endswith("_gray")]
+    with h5py.File(path, "r") as f:
+        names = mask_names(f, "train") or sorted_demos(f["data"])
+        stats = {k: compute_stats([f["data"][n]["obs"][k][()] for n in names]) for k in keys}
+        stats["actions"] = compute_stats([f["data"][n]["actions"][()] for n in names])
+    return stats
+
+
+def _to_device(batch: dict, device: str) -> dict:
+    return {"obs": {k: v.to(device) for k, v in batch["obs"].items()},
+            "actions": batch["actions"].to(device), "pad_mask": batch["pad_mask"].to(device)}
+
+
+def _read_log(path: Path, upto: int) -> list[dict]:
+    if not path.is_file():
+        return []
+    with open(path, newline="") as f:
+        return [row for row in csv.DictReader(f) if int(row["step"]) <= upto]
+
+
+def _write_log(path: Path, rows: list[dict]) -> None:
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=LOG_COLUMNS)
+    writer.writeheader()
+    writer.writerows(rows)
+    atomic_write_text(path, buffer.getvalue())
+
+
+def _tensorboard(out: Path):
+    try:
+        from torch.utils.tensorboard import SummaryWriter
+    except ImportError:
+        return None
+    return SummaryWriter(str(out / "tensorboard"))
+
+
+def validation_losses(policy: RecurrentGMMPolicy, dataset: DemoSequenceDataset,
+                      config: LearningConfig, device: str) -> dict[str, float]:
+    """Mean loss terms over ``valid_batches`` fixed batches of ``dataset``."""
+    sampler = StepBatchSampler(len(dataset), config.batch_size, VALID_SEED, 0,
+                               config.valid_batches)
+    loader = DataLoader(dataset, batch_sampler=sampler, num_workers=0)
+    totals: dict[str, float] = {}
+    policy.eval()
+    with torch.no_grad():
+        for batch in loader:
+            for k, v in policy.losses(_to_device(batch, device)).items():
+                totals[k] = totals.get(k, 0.0) + float(v) / config.valid_batches
+    policy.train()
+    return totals
+
+
+def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int | None = None,
+          device: str = "cpu", resume: bool = False, progress: bool | None = None
+          ) -> Checkpoint:
+    """Trains a policy on the demonstrations in ``data``; writes the run into ``out``.
+
+    ``steps`` overrides ``config.steps``; ``resume`` continues from ``out/last.pt`` (its config
+    wins over ``config``, except for ``steps``). Returns the final checkpoint."""
+    from tqdm import tqdm
+
+    data, out = Path(data), Path(out)
+    if device.startswith("cuda") and not torch.cuda.is_available():
+        raise ConfigError("--device cuda: no CUDA device is available")
+    last = out / "last.pt"
+    previous = None
+    if resume:
+        if not last.is_file():
+            raise ConfigError(f"--resume: no checkpoint {last} to resume from")
+        previous = load_checkpoint(last, device)
+        raw = previous.config.to_dict()
+        if steps is None:
+            raw["steps"] = config.steps
+        config = config_from_dict(raw, str(last))
+    total_steps = steps if steps is not None else config.steps
+    train_seeds = check_data(data, config)
+    if device == "cpu" and config.cpu_threads > 0:
+        torch.set_num_threads(config.cpu_threads)
+    seed_everything(config.seed)
+    dataset = DemoSequenceDataset(data, config.obs_keys, config.seq_length, "train",
+                                  cache_images=config.cache_images)
+    try:
+        valid = DemoSequenceDataset(data, config.obs_keys, config.seq_length, "valid",
+                                    cache_images=config.cache_images)
+    except DatasetError:
+        valid = None  # too few demos for a validation split
+    if previous is not None:
+        ckpt = previous
+        ckpt.policy.train()
+    else:
+        stats = dataset_stats(data, config)
+        ckpt = Checkpoint(config, stats, RecurrentGMMPolicy(config, stats).to(device),
+                          train_seeds=train_seeds, data=str(data))
+    ckpt.config = config
+    policy = ckpt.policy
+    optimizer = torch.optim.Adam(policy.parameters(), lr=config.lr,
+                                 weight_decay=config.weight_decay)
+    if ckpt.optimizer is not None:
+        optimizer.load_state_dict(ckpt.optimizer)
+    out.mkdir(parents=True, exist_ok=True)
+    save_config(config, out / "config.yaml")
+    log_path = out / "log.csv"
+    rows = _read_log(log_path, ckpt.step)
+    board = _tensorboard(out)
+    sampler = StepBatchSampler(len(dataset), config.batch_size, config.seed, ckpt.step,
+                               total_steps)
+    loader = DataLoader(dataset, batch_sampler=sampler, num_workers=config.num_workers,
+                        persistent_workers=False)
+    bar = tqdm(total=total_steps, initial=ckpt.step, desc=f"train {config.name}",
+               unit="step", disable=None if progress is None else not progress)
+    policy.train()
+    for batch in loader:
+        losses = policy.losses(_to_device(batch, device))
+        optimizer.zero_grad(set_to_none=True)
+        losses["total"].backward()
+        if config.grad_clip > 0:
+            torch.nn.utils.clip_grad_norm_(policy.parameters(), config.grad_clip)
+        optimizer.step()
+        ckpt.step += 1
+        row = {k: float(v.detach()) for k, v in losses.items()}
+        if not math.isfinite(row["total"]):
+            raise FloatingPointError(f"non-finite loss at step {ckpt.step}: {row}")
+        row.update(step=ckpt.step, lr=config.lr)
+        if valid is not None and ckpt.step % config.valid_every == 0:
+            scores = validation_losses(policy, valid, config, device)
+            row.update({f"valid_{k}": v for k, v in scores.items()})
+            if scores["total"] < ckpt.best_valid:
+                ckpt.best_valid = scores["total"]
+                save_checkpoint(out / "best.pt", ckpt, optimizer)
+        rows.append(row)
+        if board is not None:
+            for k, v in row.items():
+                if k != "step":
+                    board.add_scalar(k, v, ckpt.step)
+        bar.update(1)
+        bar.set_postfix(loss=f"{row['total']:.3f}")
+        if ckpt.step % config.checkpoint_every == 0 or ckpt.step == total_steps:
+            save_checkpoint(last, ckpt, optimizer)
+            _write_log(log_path, rows)
+    bar.close()
+    if valid is None or not (out / "best.pt").is_file():
+        save_checkpoint(out / "best.pt", ckpt, optimizer)
+    save_checkpoint(last, ckpt, optimizer)
+    _write_log(log_path, rows)
+    ckpt.optimizer = optimizer.state_dict()
+    log.info("trained %s to step %d; checkpoints in %s", config.name, ckpt.step, out)
+    return ckpt

@@ -1,0 +1,171 @@
+"""A trained policy (pi_H) as a 10 Hz controller: a drop-in for the scripted demonstrator."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, Context, LeafSystem, State
+
+from legato_drake import conventions
+from legato_drake.data.layout import HISTORY
+from legato_drake.errors import ConfigError
+from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint
+from legato_drake.learning.encoders import image_to_tensor
+from legato_drake.systems.episode_recorder import EpisodeRecorder
+
+
+@dataclass(frozen=True)
+class PolicyState:
+    """What the controller carries from one step to the next (its abstract state)."""
+
+    step: int
+    """Policy steps taken."""
+    hidden: tuple[np.ndarray, np.ndarray] | None
+    """The LSTM state (h, c), None right after a reset."""
+    history: np.ndarray
+    """(2, 6) the pose deltas of the last two actions, oldest first (zeros at the start)."""
+    action: tuple[float, ...]
+    """The current action (7)."""
+
+
+class PolicyController(LeafSystem):
+    """Runs a trained LEGATO / BC-RNN policy every ``period`` (same ports and event phase as
+    ``ScriptedDemonstrator``: it acts at ``t_k + CONTROLLER_OFFSET``, after the camera rendered
+    at ``t_k``).
+
+    Each step it builds the observation the policy was trained on: the pose-delta history
+    (``delta_positions``, ``delta_eulers``: its own last two actions, oldest first, zeros
+    before the first ones, as ``data.layout.delta_history``), plus either the two camera
+    images (``image_to_tensor``: the preprocessing of training) or the privileged state
+    features, computed by the ``EpisodeRecorder`` ``features`` itself (the very code that
+    recorded the dataset). It runs the policy under ``torch.no_grad`` and outputs the
+    low-noise GMM mode. The LSTM state is reset every ``seq_length`` steps (the training
+    horizon).
+
+    Input ports (by the policy's observation mode):
+        image: left_gray, right_gray (numpy uint8 H x W x 1).
+        state: plant_state (the plant's [q; v]), X_WG_commanded (7, [xyz, quaternion wxyz]).
+
+    Output ports:
+        action (7): [dx, dy, dz, droll, dpitch, dyaw, grasp].
+        done (1): always 0 (a policy never says it is done; the episode's time limit or
+            success ends it).
+
+    State: abstract ``PolicyState`` (step, LSTM state, pose-delta history, action). The
+    recorder's scratch context used to compute state features holds nothing between steps.
+    """
+
+    def __init__(self, checkpoint: Checkpoint | str | Path,
+                 features: EpisodeRecorder | None = None,
+                 t_start: float = conventions.HOMING_DURATION,
+                 period: float = conventions.POLICY_PERIOD,
+                 offset: float = conventions.CONTROLLER_OFFSET,
+                 threads: int | None = None):
+        super().__init__()
+        if threads is not None:
+            torch.set_num_threads(threads)
+        ckpt = checkpoint if isinstance(checkpoint, Checkpoint) else load_checkpoint(checkpoint)
+        self._policy = ckpt.policy.to("cpu").eval()
+        self._config = ckpt.config
+        self._reset_every = ckpt.config.seq_length
+        self._t_start = t_start
+        self._images = {}
+        self._state_keys = list(self._policy.low_dim_keys[2:])
+        self._features = features
+        if ckpt.config.obs_mode == "image":
+            blank = AbstractValue.Make(np.zeros((1, 1, 1), dtype=np.uint8))
+            self._images = {k: self.DeclareAbstractInputPort(k, blank)
+                            for k in self._policy.image_keys}
+        else:
+            if features is None:
+                raise ValueError("a state-mode policy needs the EpisodeRecorder 'features' "
+                                 "that computes its state observations")
+            if "object" in self._state_keys:
+                trained = len(ckpt.stats["object"]["mean"])
+                here = 7 * len(features.object_body_names)
+                if trained != here:
+                    raise ConfigError(
+                        f"the policy was trained with {trained // 7} object bodies, this scene "
+                        f"has {here // 7} ({', '.join(features.object_body_names)}): a "
+                        "state policy runs on the task it was trained on")
+            plant_port = features.get_plant_state_input_port()
+            self._plant_state = self.DeclareVectorInputPort("plant_state", plant_port.size())
+            self._commanded = self.DeclareVectorInputPort("X_WG_commanded", 7)
+            self._scratch = features.CreateDefaultContext()
+            self._scratch.SetTime(t_start)
+            features.get_action_input_port().FixValue(self._scratch, np.zeros(7))
+        initial = PolicyState(0, None, np.zeros((HISTORY, 6)), (0.0,) * 7)
+        self._state = self.DeclareAbstractState(AbstractValue.Make(initial))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, t_start + offset, self._step)
+        self.DeclareVectorOutputPort("action", 7, self._calc_action, {self.all_state_ticket()})
+        self.DeclareVectorOutputPort("done", 1, self._calc_done, {self.nothing_ticket()})
+
+    @property
+    def config(self):
+        """The policy's ``LearningConfig``."""
+        return self._config
+
+    @property
+    def obs_mode(self) -> str:
+        """``image`` or ``state``."""
+        return self._config.obs_mode
+
+    def get_image_input_ports(self):
+        """The (left_gray, right_gray) input ports (empty for a state policy)."""
+        return tuple(self._images.values())
+
+    def get_plant_state_input_port(self):
+        return self._plant_state
+
+    def get_commanded_pose_input_port(self):
+        return self._commanded
+
+    def policy_state(self, context: Context) -> PolicyState:
+        """The controller's state in ``context``."""
+        return context.get_abstract_state(self._state).get_value()
+
+    def observation(self, context: Context, history: np.ndarray) -> dict[str, torch.Tensor]:
+        """The policy's raw observation (batch of one) in ``context`` given the history."""
+        obs = {"delta_positions": torch.from_numpy(
+                   history[:, 0:3].reshape(1, -1).astype(np.float32)),
+               "delta_eulers": torch.from_numpy(
+                   history[:, 3:6].reshape(1, -1).astype(np.float32))}
+        for key, port in self._images.items():
+            obs[key] = image_to_tensor(port.Eval(context))[None]
+        if self._state_keys:
+            rec = self._features
+            rec.get_plant_state_input_port().FixValue(self._scratch,
+                                                      self._plant_state.Eval(context))
+            rec.get_commanded_pose_input_port().FixValue(self._scratch,
+                                                         self._commanded.Eval(context))
+            rec.clear(self._scratch)
+            rec._record(self._scratch)  # the recorder's own feature code (no copy of it)
+            sample = rec.log(self._scratch).to_arrays()
+            rec.clear(self._scratch)
+            for key in self._state_keys:
+                obs[key] = torch.from_numpy(sample[key].astype(np.float32))
+        return obs
+
+    def _step(self, context: Context, state: State) -> None:
+        current = self.policy_state(context)
+        hidden = None
+        if current.step % self._reset_every != 0 and current.hidden is not None:
+            hidden = tuple(torch.from_numpy(h) for h in current.hidden)
+        obs = self.observation(context, current.history)
+        with torch.no_grad():
+            action, hidden = self._policy.act(obs, hidden)
+        action = action[0].numpy().astype(float)
+        history = np.concatenate([current.history[1:], action[None, :6]])
+        new = PolicyState(current.step + 1, tuple(h.numpy().copy() for h in hidden), history,
+                          tuple(float(a) for a in action))
+        state.get_mutable_abstract_state(self._state).set_value(new)
+
+    def _calc_action(self, context: Context, output: BasicVector) -> None:
+        output.SetFromVector(self.policy_state(context).action)
+
+    def _calc_done(self, context: Context, output: BasicVector) -> None:
+        output.SetFromVector([0.0])

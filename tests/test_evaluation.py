@@ -1,0 +1,158 @@
+"""Evaluation: resumable results, tables, plots; and the end-to-end pipeline (collect, train,
+evaluate through the real diagram)."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from legato_drake import evaluation
+from legato_drake.cli import main
+from legato_drake.errors import ConfigError
+from legato_drake.evaluation import (
+    combine,
+    evaluate,
+    load_results,
+    plot_success,
+    results_path,
+    summarize,
+)
+from legato_drake.learning.train import train
+from tests.learning_helpers import synthetic_dataset, tiny_config
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+
+
+@pytest.fixture(scope="module")
+def checkpoint(tmp_path_factory) -> Path:
+    tmp = tmp_path_factory.mktemp("eval")
+    data = synthetic_dataset(tmp / "d.hdf5", demos=3, length=10, images=False)
+    train(tiny_config(steps=2), data, tmp / "run", progress=False)
+    return tmp / "run" / "best.pt"
+
+
+def _fake_trial(job: dict) -> dict:
+    return {"method": job["method"], "embodiment": job["embodiment"], "task": job["task"],
+            "trial": job["trial"], "seed": job["seed"], "success": job["seed"] % 2 == 0,
+            "reason": "" if job["seed"] % 2 == 0 else "fake", "success_time": 1.0,
+            "episode_time": 2.0, "wall_time": 0.1, "html": None}
+
+
+def test_results_are_written_per_trial_and_an_interrupted_run_resumes(tmp_path, checkpoint,
+                                                                       monkeypatch):
+    calls = []
+
+    def flaky(job):
+        calls.append(job["seed"])
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return _fake_trial(job)
+
+    monkeypatch.setattr(evaluation, "_run_trial", flaky)
+    with pytest.raises(KeyboardInterrupt):
+        evaluate(checkpoint, ["abstract", "panda"], ["lid"], 2, tmp_path, progress=False)
+    path = results_path(tmp_path, "tiny")
+    assert len(load_results(path)["trials"]) == 2
+    monkeypatch.setattr(evaluation, "_run_trial", _fake_trial)
+    doc = evaluate(checkpoint, ["abstract", "panda"], ["lid"], 2, tmp_path, progress=False)
+    assert [(t["embodiment"], t["seed"]) for t in doc["trials"]] == [
+        ("abstract", 10000), ("abstract", 10001), ("panda", 10000), ("panda", 10001)]
+    with open(path.with_suffix(".csv"), newline="") as f:
+        assert len(list(csv.DictReader(f))) == 4
+    rows = summarize(doc["trials"])
+    assert rows[0][:4] == ["tiny", "abstract", "lid", "1/2"] and rows[0][4] == 50.0
+    png = plot_success(combine([path]), tmp_path / "p.png")
+    assert png.stat().st_size > 1000
+
+
+def test_training_seeds_and_foreign_results_are_refused(tmp_path, checkpoint):
+    with pytest.raises(ConfigError, match="used for training"):
+        evaluate(checkpoint, ["abstract"], ["lid"], 2, tmp_path, seed0=0, progress=False)
+    results_path(tmp_path, "tiny").write_text(json.dumps(
+        {"format": evaluation.FORMAT, "checkpoint": "/else.pt", "trials": []}))
+    with pytest.raises(ConfigError, match="/else.pt"):
+        evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False)
+    (tmp_path / "x.json").write_text("[]")
+    with pytest.raises(ConfigError, match="not a legato_drake evaluation"):
+        load_results(tmp_path / "x.json")
+
+
+def test_scenario_checks_the_checkpoint_field(tmp_path):
+    from legato_drake.scenario import Scenario
+
+    with pytest.raises(ConfigError, match="checkpoint must name"):
+        Scenario(controller="policy").validate()
+    with pytest.raises(ConfigError, match=r"checkpoint: file not found: .*none\.pt"):
+        Scenario(controller="policy", checkpoint=str(tmp_path / "none.pt")).validate()
+
+
+def test_image_policy_needs_the_camera(tmp_path):
+    from legato_drake.diagram import build_diagram
+    from legato_drake.scenario import Scenario
+
+    data = synthetic_dataset(tmp_path / "d.hdf5", demos=2, length=6)
+    train(tiny_config(obs_mode="image", steps=1), data, tmp_path / "run", progress=False)
+    scenario = Scenario(embodiment="abstract", controller="policy",
+                        checkpoint=str(tmp_path / "run" / "last.pt"))
+    scenario.camera.enabled = False
+    with pytest.raises(ConfigError, match="camera.enabled"):
+        build_diagram(scenario.validate())
+
+
+@pytest.mark.slow
+def test_image_policy_drives_the_diagram_from_the_cameras(tmp_path):
+    from legato_drake.diagram import build_diagram
+    from legato_drake.episode import simulate
+    from legato_drake.scenario import Scenario
+
+    data = synthetic_dataset(tmp_path / "d.hdf5", demos=2, length=6)
+    train(tiny_config(obs_mode="image", steps=1), data, tmp_path / "run", progress=False)
+    scenario = Scenario(embodiment="abstract", controller="policy", duration=0.25,
+                        checkpoint=str(tmp_path / "run" / "last.pt"))
+    scenario.camera.width = scenario.camera.height = 32
+    built = build_diagram(scenario.validate())
+    simulator, result = simulate(built)
+    context = built.controller.GetMyContextFromRoot(simulator.get_context())
+    assert built.controller.policy_state(context).step == 3
+    assert result.episode_time == pytest.approx(0.25, abs=0.01)
+
+
+@pytest.mark.slow
+def test_collect_train_evaluate_end_to_end(tmp_path, capsys):
+    """Real short episodes (camera off), the small state config trained for 150 steps, then
+    one closed-loop trial through the real diagram, evaluated twice (the second resumes)."""
+    from legato_drake.data.collect import collect
+
+    data = tmp_path / "lid.hdf5"
+    collect("lid", "abstract", 3, data, keep_failures=True, duration=4.0, camera=False,
+            progress=False)
+    run = tmp_path / "run"
+    assert main(["train", "--config", str(CONFIGS / "legato_small_state.yaml"), "--data",
+                 str(data), "--out", str(run), "--steps", "150", "--set", "valid_every=50",
+                 "--set", "checkpoint_every=50", "--set", "valid_batches=2"]) == 0
+    with open(run / "log.csv", newline="") as f:
+        losses = [float(row["total"]) for row in csv.DictReader(f)]
+    assert len(losses) == 150
+    assert np.mean(losses[-20:]) < 0.8 * np.mean(losses[:20])
+
+    args = ["evaluate", "--checkpoint", str(run / "best.pt"), "--embodiments", "abstract",
+            "--tasks", "lid", "--trials", "1", "--out", str(tmp_path / "results"),
+            "--duration", "1.0", "--replays", "1"]
+    assert main(args) == 0
+    path = tmp_path / "results" / "legato_small_state.json"
+    first = load_results(path)
+    (trial,) = first["trials"]
+    assert trial["seed"] == 10000 and trial["episode_time"] == pytest.approx(1.0, abs=0.01)
+    assert trial["reason"] or trial["success"]
+    assert "center_offset" in trial["metrics"]
+    assert Path(trial["html"]).stat().st_size > 100_000
+    assert (tmp_path / "results" / "legato_small_state.png").is_file()
+    assert main(args) == 0  # resumes: nothing left to run
+    assert load_results(path) == first
+    assert main(["evaluate", "--plot", str(path), "--out", str(tmp_path / "results")]) == 0
+    assert (tmp_path / "results" / "success_rates.png").is_file()
+    assert "legato_small_state" in capsys.readouterr().out

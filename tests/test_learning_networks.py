@@ -1,0 +1,146 @@
+"""Encoders, spatial softmax, GMM heads, the loss terms and normalisation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+import torch.nn.functional as F  # noqa: N812
+
+from legato_drake.data.torch_dataset import DemoSequenceDataset
+from legato_drake.learning.encoders import ImageEncoder, SpatialSoftmax, image_to_tensor
+from legato_drake.learning.normalization import Normalizer, compute_stats
+from legato_drake.learning.policies import PolicyOutput, RecurrentGMMPolicy
+from tests.learning_helpers import synthetic_dataset, tiny_config
+
+B, T = 3, 5
+
+
+def _stats(state: bool = True) -> dict:
+    rng = np.random.default_rng(0)
+    dims = {"delta_positions": 6, "delta_eulers": 6, "tcp_commanded": 7, "object": 21,
+            "fingers": 2, "actions": 7}
+    return {k: compute_stats([rng.normal(0, 0.01, (50, d))]) for k, d in dims.items()}
+
+
+def _batch(image: int = 0) -> dict:
+    g = torch.Generator().manual_seed(0)
+    obs = {"delta_positions": 0.01 * torch.randn(B, T, 6, generator=g),
+           "delta_eulers": 0.01 * torch.randn(B, T, 6, generator=g),
+           "tcp_commanded": torch.randn(B, T, 7, generator=g),
+           "object": torch.randn(B, T, 21, generator=g), "fingers": torch.rand(B, T, 2)}
+    if image:
+        obs["left_gray"] = torch.rand(B, T, 1, image, image, generator=g)
+        obs["right_gray"] = torch.rand(B, T, 1, image, image, generator=g)
+    actions = 0.01 * torch.randn(B, T, 7, generator=g)
+    actions[..., 6] = (torch.arange(T) >= 2).float()
+    mask = torch.ones(B, T, dtype=torch.bool)
+    mask[0, -1] = False
+    return {"obs": obs, "actions": actions, "pad_mask": mask}
+
+
+@pytest.mark.parametrize("trunk,size,channels", [("small", 32, [4, 8]),
+                                                 ("resnet18", 64, None)])
+def test_image_encoder_shape(trunk, size, channels):
+    encoder = ImageEncoder(trunk, keypoints=32, feature_dim=64, channels=channels)
+    assert encoder(torch.rand(2, 1, size, size)).shape == (2, 64)
+
+
+def test_spatial_softmax_keypoints_in_range_and_at_a_known_peak():
+    softmax = SpatialSoftmax(8, 5)
+    points = softmax(torch.randn(2, 8, 9, 11))
+    assert points.shape == (2, 5, 2) and points.abs().max() <= 1.0
+    maps = torch.full((1, 2, 5, 9), -1e4)
+    maps[0, 0, 0, 8] = 0.0   # top-right corner: x = 1, y = -1
+    maps[0, 1, 2, 4] = 0.0   # centre
+    xy = SpatialSoftmax.expected_xy(maps)[0]
+    torch.testing.assert_close(xy, torch.tensor([[1.0, -1.0], [0.0, 0.0]]))
+
+
+@pytest.mark.parametrize("algo", ["legato", "bc_rnn"])
+@pytest.mark.parametrize("mode", ["state", "image"])
+def test_policy_shapes_and_finite_log_prob(algo, mode):
+    config = tiny_config(algo=algo, obs_mode=mode, gmm_modes=5)
+    policy = RecurrentGMMPolicy(config, _stats())
+    batch = _batch(image=16 if mode == "image" else 0)
+    out, (h, c) = policy(batch["obs"])
+    dims = 6 if algo == "legato" else 7
+    assert out.logits.shape == (B, T, 5)
+    assert out.means.shape == out.scales.shape == (B, T, 5, dims)
+    assert (out.scales >= config.min_std).all()
+    assert h.shape == c.shape == (1, B, 16)
+    assert (out.grasp_logits is None) == (algo == "bc_rnn")
+    if algo == "legato":
+        assert out.grasp_logits.shape == (B, T, 2)
+    log_prob = out.distribution().log_prob(torch.zeros(B, T, dims))
+    assert log_prob.shape == (B, T) and torch.isfinite(log_prob).all()
+    action, _ = policy.act({k: v[:, 0] for k, v in batch["obs"].items()})
+    assert action.shape == (B, 7) and set(action[:, 6].tolist()) <= {0.0, 1.0}
+    losses = policy.losses(batch)
+    assert set(losses) == {"nll", "ce", "invar", "total"}
+    assert all(torch.isfinite(v) for v in losses.values())
+
+
+def test_mode_action_takes_the_most_likely_component_in_raw_units():
+    policy = RecurrentGMMPolicy(tiny_config(), _stats())
+    logits = torch.tensor([[[0.0, 3.0, 1.0]]])
+    means = torch.arange(18, dtype=torch.float32).reshape(1, 1, 3, 6)
+    grasp = torch.tensor([[[0.2, 1.5]]])
+    out = PolicyOutput(logits, means, torch.ones_like(means), grasp)
+    action = policy.mode_action(out)[0, 0]
+    norm = policy.normalizers["actions"]
+    torch.testing.assert_close(action[:6], means[0, 0, 1] * norm.std[:6] + norm.mean[:6])
+    assert action[6] == 1.0
+
+
+def test_grasp_loss_is_cross_entropy_on_logits():
+    config = tiny_config(invariant_weight=0.0)
+    policy = RecurrentGMMPolicy(config, _stats())
+    batch = _batch()
+    batch["pad_mask"][:] = True
+    out, _ = policy(batch["obs"])
+    expected = F.cross_entropy(out.grasp_logits.reshape(-1, 2),
+                               batch["actions"][..., 6].reshape(-1).long())
+    torch.testing.assert_close(policy.losses(batch)["ce"], expected)
+    double = F.cross_entropy(torch.softmax(out.grasp_logits, -1).reshape(-1, 2),
+                             batch["actions"][..., 6].reshape(-1).long())
+    assert not torch.isclose(expected, double)
+
+
+@pytest.mark.parametrize("mode", ["state", "image"])
+def test_invariant_loss_gradient_reaches_the_encoder_and_lstm(mode):
+    torch.manual_seed(0)
+    config = tiny_config(obs_mode=mode, invariant_weight=1.0)
+    policy = RecurrentGMMPolicy(config, _stats())
+    batch = _batch(image=16 if mode == "image" else 0)
+    invar = policy.losses(batch)["invar"]
+    assert invar > 0
+    invar.backward()
+    assert policy.rnn.weight_ih_l0.grad.abs().sum() > 0
+    assert policy.means_head.weight.grad.abs().sum() > 0
+    if mode == "image":
+        assert policy.encoders["left_gray"].trunk[0].weight.grad.abs().sum() > 0
+    without = RecurrentGMMPolicy(tiny_config(obs_mode=mode, invariant_weight=0.0), _stats())
+    assert without.losses(batch)["invar"] == 0.0
+
+
+def test_normalizer_round_trip():
+    data = np.random.default_rng(1).normal(3.0, [0.1, 2.0, 0.0], (100, 3))
+    stats = compute_stats([data])
+    assert stats["std"][2] == 1.0  # a constant dimension is not blown up
+    norm = Normalizer(stats["mean"], stats["std"])
+    x = torch.from_numpy(data).float()
+    torch.testing.assert_close(norm.inverse(norm(x)), x)
+    assert norm(x)[:, :2].std(0).sub(1.0).abs().max() < 0.02
+
+
+def test_rollout_images_are_preprocessed_as_in_training(tmp_path):
+    path = synthetic_dataset(tmp_path / "d.hdf5", demos=2, length=6)
+    dataset = DemoSequenceDataset(path, seq_length=3, split="all")
+    item = dataset[0]
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        frame = f["data/demo_0/obs/left_gray"][0]  # (H, W, 1) uint8, what the camera outputs
+    torch.testing.assert_close(image_to_tensor(frame), item["obs"]["left_gray"][0])
+    assert image_to_tensor(frame).shape == (1, 16, 16)

@@ -1,0 +1,115 @@
+"""Configs, training (seeded, logged), checkpoints and resuming, and their errors."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+import torch
+
+from legato_drake.cli import main
+from legato_drake.data.layout import DatasetError
+from legato_drake.errors import ConfigError
+from legato_drake.learning.checkpoint import CheckpointError, load_checkpoint
+from legato_drake.learning.config import apply_overrides, load_config, save_config
+from legato_drake.learning.train import train
+from tests.learning_helpers import synthetic_dataset, tiny_config
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+
+
+def _losses(run: Path) -> list[float]:
+    with open(run / "log.csv", newline="") as f:
+        return [float(row["total"]) for row in csv.DictReader(f)]
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory) -> Path:
+    return synthetic_dataset(tmp_path_factory.mktemp("data") / "d.hdf5")
+
+
+@pytest.mark.parametrize("path", sorted(CONFIGS.glob("*.yaml")), ids=lambda p: p.stem)
+def test_shipped_configs_load(path):
+    config = load_config(path)
+    assert config.name == path.stem.replace("_paper", "")
+    assert config.seq_length == 20 and config.batch_size == 16
+    if "paper" in path.stem:
+        assert (config.rnn_layers, config.rnn_hidden, config.mlp_dims, config.lr) == \
+            (3, 400, [2048, 2048, 2048], 1e-4)
+
+
+def test_config_errors_name_the_field_and_the_file(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("algo: legato\nlstm_size: 3\n")
+    with pytest.raises(ConfigError, match=r"unknown field 'lstm_size' in .*bad.yaml"):
+        load_config(bad)
+    bad.write_text("rnn_hidden: many\n")
+    with pytest.raises(ConfigError, match=r"rnn_hidden in .*bad.yaml must be an integer"):
+        load_config(bad)
+    bad.write_text("obs_mode: lidar\n")
+    with pytest.raises(ConfigError, match="obs_mode.*image, state"):
+        load_config(bad)
+    with pytest.raises(ConfigError, match="not found"):
+        load_config(tmp_path / "missing.yaml")
+    with pytest.raises(ConfigError, match="unknown field 'invariant'"):
+        apply_overrides(tiny_config(), ["invariant=0"])
+    assert apply_overrides(tiny_config(), ["invariant_weight=0"]).invariant_weight == 0.0
+    save_config(tiny_config(), tmp_path / "round.yaml")
+    assert load_config(tmp_path / "round.yaml") == tiny_config()
+
+
+def test_data_errors(tmp_path, data):
+    with pytest.raises(DatasetError, match="not found"):
+        train(tiny_config(), tmp_path / "none.hdf5", tmp_path / "run", progress=False)
+    state_only = synthetic_dataset(tmp_path / "s.hdf5", demos=2, length=6, images=False)
+    with pytest.raises(ConfigError, match="left_gray.*lacks.*state-only"):
+        train(tiny_config(obs_mode="image"), state_only, tmp_path / "run", progress=False)
+    with pytest.raises(CheckpointError, match="not found"):
+        load_checkpoint(tmp_path / "run" / "last.pt")
+    with pytest.raises(ConfigError, match="resume"):
+        train(tiny_config(), data, tmp_path / "empty", resume=True, progress=False)
+
+
+def test_training_is_seeded_logged_and_checkpointed(tmp_path, data):
+    config = tiny_config(steps=20)
+    a = train(config, data, tmp_path / "a", progress=False)
+    train(config, data, tmp_path / "b", progress=False)
+    assert _losses(tmp_path / "a") == _losses(tmp_path / "b")
+    with open(tmp_path / "a" / "log.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 20 and {"nll", "ce", "invar", "total", "valid_total"} <= set(rows[0])
+    assert rows[9]["valid_total"] and not rows[8]["valid_total"]
+    ckpt = load_checkpoint(tmp_path / "a" / "last.pt")
+    assert ckpt.step == 20 and ckpt.config == config and ckpt.optimizer is not None
+    assert ckpt.train_seeds == [0, 1, 2, 3]
+    for key, value in a.stats.items():
+        torch.testing.assert_close(torch.as_tensor(ckpt.stats[key]["mean"]),
+                                   torch.as_tensor(value["mean"]))
+    for name, tensor in a.policy.state_dict().items():
+        torch.testing.assert_close(ckpt.policy.state_dict()[name], tensor)
+    assert (tmp_path / "a" / "best.pt").is_file()
+    assert load_config(tmp_path / "a" / "config.yaml") == config
+
+
+def test_resume_continues_the_step_count_with_the_same_losses(tmp_path, data):
+    config = tiny_config(steps=20)
+    train(config, data, tmp_path / "full", progress=False)
+    train(config, data, tmp_path / "split", steps=10, progress=False)
+    assert load_checkpoint(tmp_path / "split" / "last.pt").step == 10
+    resumed = train(config, data, tmp_path / "split", resume=True, progress=False)
+    assert resumed.step == 20
+    assert _losses(tmp_path / "split") == pytest.approx(_losses(tmp_path / "full"), rel=1e-5)
+
+
+def test_cli_train_with_an_override(tmp_path, data):
+    cfg = tmp_path / "c.yaml"
+    save_config(tiny_config(algo="bc_rnn", invariant_weight=0.0), cfg)
+    assert main(["train", "--config", str(cfg), "--data", str(data), "--out",
+                 str(tmp_path / "run"), "--steps", "3", "--set", "invariant_weight=0.01"]) == 0
+    ckpt = load_checkpoint(tmp_path / "run" / "last.pt")
+    assert ckpt.step == 3 and ckpt.config.invariant_weight == 0.01
+    assert ckpt.config.algo == "bc_rnn"
+    with pytest.raises(SystemExit):
+        main(["train", "--config", str(cfg), "--data", str(tmp_path / "no.hdf5"), "--out",
+              str(tmp_path / "run2")])
