@@ -22,6 +22,8 @@ bench: $(STAMP)  ## speed benchmarks (tables on stdout)
 	$(BIN)/python benchmarks/bench_closed_loop.py
 	$(BIN)/python benchmarks/bench_ik.py
 	$(BIN)/python benchmarks/bench_invariants.py
+	$(BIN)/python benchmarks/bench_training_step.py
+	$(BIN)/python benchmarks/bench_policy.py
 
 clean:
 	rm -rf $(VENV) replays .pytest_cache

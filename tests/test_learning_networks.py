@@ -9,7 +9,7 @@ import torch.nn.functional as F  # noqa: N812
 
 from legato_drake.data.torch_dataset import DemoSequenceDataset
 from legato_drake.learning.encoders import ImageEncoder, SpatialSoftmax, image_to_tensor
-from legato_drake.learning.normalization import Normalizer, compute_stats
+from legato_drake.learning.normalization import OBS_MIN_STD, Normalizer, compute_stats
 from legato_drake.learning.policies import PolicyOutput, RecurrentGMMPolicy
 from tests.learning_helpers import synthetic_dataset, tiny_config
 
@@ -132,6 +132,14 @@ def test_normalizer_round_trip():
     x = torch.from_numpy(data).float()
     torch.testing.assert_close(norm.inverse(norm(x)), x)
     assert norm(x)[:, :2].std(0).sub(1.0).abs().max() < 0.02
+
+
+def test_barely_varying_observations_are_not_blown_up():
+    data = np.random.default_rng(2).normal(0.0, [1e-5, 0.05], (200, 2))
+    stats = compute_stats([data], OBS_MIN_STD)
+    assert stats["std"][0] == np.float32(OBS_MIN_STD)
+    assert stats["std"][1] == pytest.approx(0.05, rel=0.2)
+    assert compute_stats([data])["std"][0] == pytest.approx(1e-5, rel=0.2)  # actions
 
 
 def test_rollout_images_are_preprocessed_as_in_training(tmp_path):

@@ -15,14 +15,21 @@ from torch import nn
 
 MIN_STD = 1e-6
 """Dimensions with a smaller standard deviation (constants) are scaled by 1."""
+OBS_MIN_STD = 1e-3
+"""The smallest scale of an observation dimension (m, rad, or their per-step deltas). Inputs
+that barely vary in the data, such as the settled pot's quaternion x and y (std 1e-5, contact
+jitter), would otherwise be blown up 1e5-fold at rollout, where their jitter differs."""
 
 
-def compute_stats(arrays: Iterable[np.ndarray]) -> dict[str, np.ndarray]:
-    """``{"mean", "std"}`` (float32, per last-axis dim) over all rows of ``arrays``."""
+def compute_stats(arrays: Iterable[np.ndarray], min_std: float = 0.0
+                  ) -> dict[str, np.ndarray]:
+    """``{"mean", "std"}`` (float32, per last-axis dim) over all rows of ``arrays``; the std
+    of constant dimensions (below ``MIN_STD``) is 1, every other one at least ``min_std``
+    (``OBS_MIN_STD`` for observations; 0 keeps actions at their own scale)."""
     data = np.concatenate([np.asarray(a, dtype=np.float64).reshape(-1, np.shape(a)[-1])
                            for a in arrays])
     std = data.std(0)
-    std[std < MIN_STD] = 1.0
+    std = np.where(std < MIN_STD, 1.0, np.maximum(std, min_std))
     return {"mean": data.mean(0).astype(np.float32), "std": std.astype(np.float32)}
 
 

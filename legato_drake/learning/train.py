@@ -35,7 +35,7 @@ from legato_drake.errors import ConfigError
 from legato_drake.files import atomic_write_text
 from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from legato_drake.learning.config import LearningConfig, config_from_dict, save_config
-from legato_drake.learning.normalization import compute_stats
+from legato_drake.learning.normalization import OBS_MIN_STD, compute_stats
 from legato_drake.learning.policies import RecurrentGMMPolicy
 
 log = logging.getLogger(__name__)
@@ -97,7 +97,8 @@ def dataset_stats(path: Path, config: LearningConfig) -> dict[str, dict[str, np.
     keys = [k for k in config.obs_keys if not k.endswith("_gray")]
     with h5py.File(path, "r") as f:
         names = mask_names(f, "train") or sorted_demos(f["data"])
-        stats = {k: compute_stats([f["data"][n]["obs"][k][()] for n in names]) for k in keys}
+        stats = {k: compute_stats([f["data"][n]["obs"][k][()] for n in names], OBS_MIN_STD)
+                 for k in keys}
         stats["actions"] = compute_stats([f["data"][n]["actions"][()] for n in names])
     return stats
 

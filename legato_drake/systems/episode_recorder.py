@@ -144,6 +144,12 @@ class EpisodeRecorder(LeafSystem):
     def _record(self, context: Context) -> EventStatus:
         if context.get_time() < self._t_start:
             return EventStatus.DidNothing()
+        self.log(context).append(self.sample(context))
+        return EventStatus.Succeeded()
+
+    def sample(self, context: Context) -> dict[str, np.ndarray]:
+        """The sample of the inputs in ``context`` (what a step records; a state policy
+        computes its observation with this very code at rollout)."""
         x = self._plant_state.Eval(context)
         self._plant.SetPositionsAndVelocities(self._plant_context, x)
         X_WG = self._tcp_frame.CalcPoseInWorld(self._plant_context)
@@ -161,5 +167,4 @@ class EpisodeRecorder(LeafSystem):
         }
         for name, port in self._cameras.items():
             sample[name] = np.array(port.Eval(context), dtype=np.uint8, copy=True)
-        self.log(context).append(sample)
-        return EventStatus.Succeeded()
+        return sample

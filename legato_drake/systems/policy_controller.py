@@ -96,7 +96,6 @@ class PolicyController(LeafSystem):
             self._plant_state = self.DeclareVectorInputPort("plant_state", plant_port.size())
             self._commanded = self.DeclareVectorInputPort("X_WG_commanded", 7)
             self._scratch = features.CreateDefaultContext()
-            self._scratch.SetTime(t_start)
             features.get_action_input_port().FixValue(self._scratch, np.zeros(7))
         initial = PolicyState(0, None, np.zeros((HISTORY, 6)), (0.0,) * 7)
         self._state = self.DeclareAbstractState(AbstractValue.Make(initial))
@@ -142,12 +141,9 @@ class PolicyController(LeafSystem):
                                                       self._plant_state.Eval(context))
             rec.get_commanded_pose_input_port().FixValue(self._scratch,
                                                          self._commanded.Eval(context))
-            rec.clear(self._scratch)
-            rec._record(self._scratch)  # the recorder's own feature code (no copy of it)
-            sample = rec.log(self._scratch).to_arrays()
-            rec.clear(self._scratch)
+            sample = rec.sample(self._scratch)  # the recorder's own feature code
             for key in self._state_keys:
-                obs[key] = torch.from_numpy(sample[key].astype(np.float32))
+                obs[key] = torch.from_numpy(sample[key][None].astype(np.float32))
         return obs
 
     def _step(self, context: Context, state: State) -> None:

@@ -69,6 +69,11 @@ class RenderMirror(LeafSystem):
             "frame_poses", lambda: AbstractValue.Make(FramePoseVector()), self._calc,
             {self.all_input_ports_ticket()})
 
+    @property
+    def source_id(self):
+        """The geometry source this system registered in the render SceneGraph."""
+        return self._source
+
     def mirror_frame(self, frame: FrameId) -> FrameId:
         """The render SceneGraph's frame that mirrors the plant SceneGraph's ``frame``."""
         return self._frames[frame][0]
@@ -101,5 +106,5 @@ def add_render_scene(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph
                                     RenderMirror(plant, scene_graph, render_scene_graph))
     builder.Connect(plant.get_body_poses_output_port(), mirror.get_input_port())
     builder.Connect(mirror.get_output_port(),
-                    render_scene_graph.get_source_pose_port(mirror._source))
+                    render_scene_graph.get_source_pose_port(mirror.source_id))
     return render_scene_graph, mirror

@@ -16,6 +16,8 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
 
+from legato_drake import conventions
+
 
 @dataclass
 class SuccessReport:
@@ -30,7 +32,12 @@ class SuccessReport:
 
 @dataclass
 class Waypoint:
-    """One target of a scripted demonstration: move the TCP there, then hold."""
+    """One target of a scripted demonstration: move the TCP there, then hold.
+
+    Plans are imitated, so every change of grasp must follow something a policy observes:
+    release on arrival (the motion ending), not after a hold in an unchanging scene; a
+    policy cannot tell the held steps apart and, taking the most likely grasp, never lets go.
+    A hold while the fingers move (the grasp) is fine: the fingers are observed."""
 
     pose: RigidTransform
     """Target pose of the gripper TCP in the world."""
@@ -75,6 +82,36 @@ def tilt_angle(R: RotationMatrix) -> float:
 def uniform(rng: np.random.Generator, low: float, high: float) -> float:
     """One uniform draw as a Python float."""
     return float(rng.uniform(low, high))
+
+
+def finger_opening(plant: MultibodyPlant, context: Context) -> float:
+    """The smaller of the two fingers' openings (m from the gripper's centre plane)."""
+    return float(min(plant.GetJointByName(n).GetOnePosition(context)
+                     for n in conventions.GRIPPER_FINGER_JOINTS))
+
+
+def body_speed(plant: MultibodyPlant, context: Context, body) -> float:
+    """The translational speed (m/s) of a body's origin in the world."""
+    return float(np.linalg.norm(
+        plant.EvalBodySpatialVelocityInWorld(context, body).translational()))
+
+
+def release_check(what: str, fingers: float, half_width: float, margin: float
+                  ) -> tuple[bool, str]:
+    """The "released" condition: both fingers open wider than the grasped part's half width
+    plus ``margin``."""
+    needed = half_width + margin
+    return (fingers >= needed, f"{what} still held: the fingers are open "
+                               f"{fingers * 1000:.0f} mm (min {needed * 1000:.0f} mm)")
+
+
+def verdict(checks: list[tuple[bool, str]], metrics: dict[str, float]) -> SuccessReport:
+    """The report of a predicate: success if every check holds, else the first failed one's
+    reason."""
+    for ok, reason in checks:
+        if not ok:
+            return SuccessReport(False, reason, metrics)
+    return SuccessReport(True, "", metrics)
 
 
 TABLE_CENTER_X = 0.95

@@ -45,14 +45,17 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
 
-from legato_drake import conventions
 from legato_drake.tasks.base import (
     SuccessReport,
     Task,
     Waypoint,
     add_table,
+    body_speed,
+    finger_opening,
+    release_check,
     tilt_angle,
     uniform,
+    verdict,
 )
 
 TABLE_HEIGHT = 0.625
@@ -116,12 +119,10 @@ class CupTask(Task):
         height = float(z - SHELF_FLOOR)
         tilt = float(np.degrees(tilt_angle(plant.EvalBodyPoseInWorld(context, self.cup)
                                            .rotation())))
-        fingers = min(plant.GetJointByName(n).GetOnePosition(context)
-                      for n in conventions.GRIPPER_FINGER_JOINTS)
-        speed = float(np.linalg.norm(
-            plant.EvalBodySpatialVelocityInWorld(context, self.cup).translational()))
+        fingers = finger_opening(plant, context)
+        speed = body_speed(plant, context, self.cup)
         metrics = dict(inset=inset, shelf_x=float(x), shelf_y=float(y), rest_height=height,
-                       tilt_deg=tilt, finger_opening=float(fingers), cup_speed=speed)
+                       tilt_deg=tilt, finger_opening=fingers, cup_speed=speed)
         low, high = self.rest_height_band
         checks = [
             (inset >= self.min_inset,
@@ -132,15 +133,10 @@ class CupTask(Task):
              f"{low * 100:+.1f} to {high * 100:+.1f} cm)"),
             (tilt <= self.max_tilt_deg,
              f"cup tilted {tilt:.0f} deg (max {self.max_tilt_deg:.0f} deg)"),
-            (fingers >= HANDLE_HALF_WIDTH + self.release_margin,
-             f"cup still held: the fingers are open {fingers * 1000:.0f} mm (min "
-             f"{(HANDLE_HALF_WIDTH + self.release_margin) * 1000:.0f} mm)"),
+            release_check("cup", fingers, HANDLE_HALF_WIDTH, self.release_margin),
             (speed <= self.max_speed, f"cup still moving at {speed:.2f} m/s"),
         ]
-        for ok, reason in checks:
-            if not ok:
-                return SuccessReport(False, reason, metrics)
-        return SuccessReport(True, "", metrics)
+        return verdict(checks, metrics)
 
     def plan_demonstration(self, plant: MultibodyPlant, context: Context,
                            rng: np.random.Generator) -> list[Waypoint]:
@@ -189,7 +185,7 @@ class CupTask(Task):
             Waypoint(RigidTransform(R_place, p_front), grasp=True, speed=speed),
             Waypoint(RigidTransform(R_place, p_place + [0.0, 0.0, 0.005]), grasp=True,
                      speed=0.06),
-            Waypoint(RigidTransform(R_place, p_place), grasp=True, speed=0.05, hold=0.3),
+            Waypoint(RigidTransform(R_place, p_place), grasp=True, speed=0.05),
             Waypoint(RigidTransform(R_place, p_place), grasp=False, hold=0.8),
             Waypoint(RigidTransform(R_place, p_retreat), grasp=False, speed=0.1),
         ]

@@ -37,8 +37,17 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
 
-from legato_drake import conventions
-from legato_drake.tasks.base import SuccessReport, Task, Waypoint, add_table, uniform
+from legato_drake.tasks.base import (
+    SuccessReport,
+    Task,
+    Waypoint,
+    add_table,
+    body_speed,
+    finger_opening,
+    release_check,
+    uniform,
+    verdict,
+)
 
 TABLE_HEIGHT = 0.625
 STOVE_HALF_HEIGHT = 0.01
@@ -108,12 +117,10 @@ class LadleTask(Task):
         X_WF = self.case_floor.CalcPoseInWorld(context)
         x, y, z = X_WF.inverse() @ self.ladle_com(plant, context)
         inset = float(min(CASE_INTERIOR_HALF[0] - abs(x), CASE_INTERIOR_HALF[1] - abs(y)))
-        fingers = min(plant.GetJointByName(n).GetOnePosition(context)
-                      for n in conventions.GRIPPER_FINGER_JOINTS)
-        speed = float(np.linalg.norm(
-            plant.EvalBodySpatialVelocityInWorld(context, self.ladle).translational()))
+        fingers = finger_opening(plant, context)
+        speed = body_speed(plant, context, self.ladle)
         metrics = dict(inset=inset, case_x=float(x), case_y=float(y), com_height=float(z),
-                       finger_opening=float(fingers), ladle_speed=speed)
+                       finger_opening=fingers, ladle_speed=speed)
         low, high = self.height_band
         checks = [
             (inset >= self.min_inset,
@@ -122,15 +129,10 @@ class LadleTask(Task):
             (low <= z <= high,
              f"ladle's centre of mass {z * 100:+.1f} cm above the case's floor (allowed "
              f"{low * 100:+.1f} to {high * 100:+.1f} cm)"),
-            (fingers >= LADLE_HALF_WIDTH + self.release_margin,
-             f"ladle still held: the fingers are open {fingers * 1000:.0f} mm (min "
-             f"{(LADLE_HALF_WIDTH + self.release_margin) * 1000:.0f} mm)"),
+            release_check("ladle", fingers, LADLE_HALF_WIDTH, self.release_margin),
             (speed <= self.max_speed, f"ladle still moving at {speed:.2f} m/s"),
         ]
-        for ok, reason in checks:
-            if not ok:
-                return SuccessReport(False, reason, metrics)
-        return SuccessReport(True, "", metrics)
+        return verdict(checks, metrics)
 
     def plan_demonstration(self, plant: MultibodyPlant, context: Context,
                            rng: np.random.Generator) -> list[Waypoint]:
@@ -184,7 +186,7 @@ class LadleTask(Task):
             Waypoint(RigidTransform(R_grasp, p_lift), grasp=True, speed=0.05),
             Waypoint(RigidTransform(R_grasp, p_out), grasp=True, speed=0.08),
             Waypoint(RigidTransform(R_place, p_above), grasp=True, speed=speed),
-            Waypoint(RigidTransform(R_place, p_place), grasp=True, speed=0.05, hold=0.3),
+            Waypoint(RigidTransform(R_place, p_place), grasp=True, speed=0.05),
             Waypoint(RigidTransform(R_place, p_place), grasp=False, hold=0.8),
             Waypoint(RigidTransform(R_place, p_retreat), grasp=False, speed=0.1),
         ]

@@ -17,13 +17,20 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
 
-from legato_drake import conventions
-from legato_drake.tasks.base import SuccessReport, Task, Waypoint, tilt_angle, uniform
+from legato_drake.tasks.base import (
+    SuccessReport,
+    Task,
+    Waypoint,
+    add_table,
+    body_speed,
+    finger_opening,
+    release_check,
+    tilt_angle,
+    uniform,
+    verdict,
+)
 
 TABLE_HEIGHT = 0.70
-TABLE_CENTER_X = 0.95
-"""The 1.3 m table spans x from 0.3 to 1.6: every robot's base and shoulder stay clear of it
-(Spot's arm base and the Google Robot's torso would otherwise sit under its edge)."""
 STOVE_HALF_HEIGHT = 0.01
 POT_HEIGHT = 0.10
 LID_HALF_THICKNESS = 0.005
@@ -43,9 +50,7 @@ class LidTask(Task):
     max_speed = 0.05
 
     def add_to_plant(self, plant: MultibodyPlant, parser: Parser) -> None:
-        (table,) = parser.AddModels(url="package://legato_drake/table.sdf")
-        plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("table_top", table),
-                         RigidTransform([TABLE_CENTER_X, 0.0, TABLE_HEIGHT]))
+        add_table(plant, parser, TABLE_HEIGHT)
         (stove,) = parser.AddModels(url="package://legato_drake/stove.sdf")
         (pot,) = parser.AddModels(url="package://legato_drake/pot.sdf")
         (lid,) = parser.AddModels(url="package://legato_drake/lid.sdf")
@@ -74,12 +79,10 @@ class LidTask(Task):
         offset = float(np.linalg.norm(X_WL.translation()[:2] - X_WR.translation()[:2]))
         tilt = np.degrees(tilt_angle(X_WL.rotation()))
         height = X_WL.translation()[2] - (X_WR.translation()[2] + LID_HALF_THICKNESS)
-        fingers = min(plant.GetJointByName(n).GetOnePosition(context)
-                      for n in conventions.GRIPPER_FINGER_JOINTS)
-        speed = float(np.linalg.norm(
-            plant.EvalBodySpatialVelocityInWorld(context, self.lid).translational()))
+        fingers = finger_opening(plant, context)
+        speed = body_speed(plant, context, self.lid)
         metrics = dict(center_offset=offset, tilt_deg=float(tilt), rest_height=float(height),
-                       finger_opening=float(fingers), lid_speed=speed)
+                       finger_opening=fingers, lid_speed=speed)
         low, high = self.rest_height_band
         checks = [
             (offset <= self.max_center_offset,
@@ -90,14 +93,10 @@ class LidTask(Task):
             (low <= height <= high,
              f"lid {height * 100:+.1f} cm from resting on the rim (allowed "
              f"{low * 100:+.1f} to {high * 100:+.1f} cm)"),
-            (fingers >= HANDLE_HALF_WIDTH + self.release_margin,
-             "lid still held: the fingers are not open"),
+            release_check("lid", fingers, HANDLE_HALF_WIDTH, self.release_margin),
             (speed <= self.max_speed, f"lid still moving at {speed:.2f} m/s"),
         ]
-        for ok, reason in checks:
-            if not ok:
-                return SuccessReport(False, reason, metrics)
-        return SuccessReport(True, "", metrics)
+        return verdict(checks, metrics)
 
     def plan_demonstration(self, plant: MultibodyPlant, context: Context,
                            rng: np.random.Generator) -> list[Waypoint]:
@@ -137,7 +136,7 @@ class LidTask(Task):
             Waypoint(RigidTransform(R_grasp, p_grasp), grasp=True, hold=0.9),
             Waypoint(RigidTransform(R_grasp, p_lift), grasp=True, speed=0.08),
             Waypoint(RigidTransform(R_grasp, p_above), grasp=True, speed=speed),
-            Waypoint(RigidTransform(R_grasp, p_place), grasp=True, speed=0.05, hold=0.3),
+            Waypoint(RigidTransform(R_grasp, p_place), grasp=True, speed=0.05),
             Waypoint(RigidTransform(R_grasp, p_place), grasp=False, hold=0.8),
             Waypoint(RigidTransform(R_grasp, p_retreat), grasp=False, speed=0.1),
         ]
