@@ -5,12 +5,16 @@ success tables with 95 % Wilson intervals, plots like the paper's figures, Meshc
 (default seeds 10000, 10001, ..., disjoint from the training demonstrations' seeds, which the
 checkpoint records and which are checked). After every trial the results file
 ``OUT/<method>.json`` (and ``OUT/<method>.csv``) is rewritten atomically, so an interrupted
-evaluation loses at most the trials in flight and a second run skips the trials already done.
+evaluation loses at most the trials in flight and a second run skips the trials already done
+(it refuses to resume with another checkpoint, identified by its SHA-256, or another
+``duration``). Trials load a frozen copy of the checkpoint, ``OUT/<method>.pt``. A trial that
+raises is recorded as a failure with the error as its reason.
 
 ``OUT/<method>.json``::
 
     {"format": "legato_drake.evaluation", "method": str, "checkpoint": str,
-     "config": {...the policy's LearningConfig...}, "seed0": int,
+     "checkpoint_sha256": str, "checkpoint_step": int,
+     "config": {...the policy's LearningConfig...}, "seed0": int, "duration": float | None,
      "trials": [{"method", "embodiment", "task", "trial", "seed", "success", "reason",
                  "success_time", "episode_time", "wall_time", "html", "metrics"}, ...]}
 """
@@ -18,6 +22,7 @@ evaluation loses at most the trials in flight and a second run skips the trials 
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import logging
@@ -26,7 +31,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from legato_drake.errors import ConfigError
-from legato_drake.files import atomic_write_text
+from legato_drake.files import atomic_write_bytes, atomic_write_text
 from legato_drake.stats import wilson_interval
 
 log = logging.getLogger(__name__)
@@ -41,26 +46,42 @@ SUMMARY_HEADERS = ["method", "embodiment", "task", "success", "rate %", "95% CI 
 
 
 def _run_trial(job: dict) -> dict:
-    """Runs one trial (in a worker process: one torch thread) and returns its row."""
+    """Runs one trial (in a worker process: one torch thread) and returns its row. A trial
+    that raises (a policy can drive the simulation somewhere it fails) is a failure whose
+    reason is the error, so that the evaluation still finishes."""
+    import time
+
     import torch
 
     from legato_drake.episode import run_episode
     from legato_drake.scenario import Scenario
 
     torch.set_num_threads(1)
+    row = {"method": job["method"], "embodiment": job["embodiment"], "task": job["task"],
+           "trial": job["trial"], "seed": job["seed"]}
     scenario = Scenario(embodiment=job["embodiment"], task=job["task"], controller="policy",
                         checkpoint=job["checkpoint"], seed=job["seed"])
     scenario.camera.enabled = job["camera"]
     if job["duration"] is not None:
         scenario.duration = job["duration"]
     html = job["html"]
-    result = run_episode(scenario.validate(), html=html)
-    return {"method": job["method"], "embodiment": job["embodiment"], "task": job["task"],
-            "trial": job["trial"], "seed": job["seed"], "success": bool(result.success),
-            "reason": result.reason, "success_time": result.success_time,
-            "episode_time": result.episode_time, "wall_time": result.wall_time,
-            "html": str(html) if html else None,
+    start = time.perf_counter()
+    try:
+        result = run_episode(scenario.validate(), html=html)
+    except Exception as e:  # noqa: BLE001 - recorded in the results, not raised
+        log.warning("trial %s failed with an error: %s", row, e)
+        return {**row, "success": False, "reason": f"error: {type(e).__name__}: {e}",
+                "success_time": None, "episode_time": 0.0,
+                "wall_time": time.perf_counter() - start, "html": None, "metrics": {}}
+    return {**row, "success": bool(result.success), "reason": result.reason,
+            "success_time": result.success_time, "episode_time": result.episode_time,
+            "wall_time": result.wall_time, "html": str(html) if html else None,
             "metrics": {k: float(v) for k, v in result.metrics.items()}}
+
+
+def file_sha256(path: Path) -> str:
+    """The SHA-256 of a file's bytes (identifies a checkpoint across runs)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def results_path(out: str | Path, method: str) -> Path:
@@ -103,6 +124,7 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
 
     checkpoint = Path(checkpoint).resolve()
     ckpt = load_checkpoint(checkpoint)
+    sha = file_sha256(checkpoint)
     method = method or ckpt.config.name
     seeds = [seed0 + i for i in range(trials)]
     overlap = sorted(set(seeds) & set(ckpt.train_seeds))
@@ -112,13 +134,23 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
     out = Path(out)
     path = results_path(out, method)
     doc = {"format": FORMAT, "method": method, "checkpoint": str(checkpoint),
-           "config": ckpt.config.to_dict(), "seed0": seed0, "trials": []}
+           "checkpoint_sha256": sha, "checkpoint_step": ckpt.step,
+           "config": ckpt.config.to_dict(), "seed0": seed0, "duration": duration,
+           "trials": []}
     if path.is_file():
         old = load_results(path)
-        if old.get("checkpoint") != str(checkpoint):
-            raise ConfigError(f"{path} holds results of checkpoint {old.get('checkpoint')}, "
-                              f"not {checkpoint}: use another --method or --out")
+        for key, what in (("checkpoint", "checkpoint"), ("checkpoint_sha256", "checkpoint"),
+                          ("duration", "--duration")):
+            if old.get(key, doc[key]) != doc[key]:
+                raise ConfigError(f"{path} holds results of another {what} ({key} "
+                                  f"{old.get(key)}, not {doc[key]}): use another --method or "
+                                  "--out, or the same settings to resume")
         doc["trials"] = old["trials"]
+    # Trials read a frozen copy, so a checkpoint rewritten meanwhile (training goes on) cannot
+    # mix two models into one success rate.
+    frozen = path.with_suffix(".pt")
+    if not frozen.is_file() or file_sha256(frozen) != sha:
+        atomic_write_bytes(frozen, checkpoint.read_bytes())
     done = {(t["embodiment"], t["task"], t["seed"]) for t in doc["trials"]}
     jobs = []
     for embodiment in embodiments:
@@ -129,7 +161,7 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
                 html = (out / "replays" / f"{method}-{embodiment}-{task}-seed{seed}.html"
                         if i < replays else None)
                 jobs.append(dict(method=method, embodiment=embodiment, task=task, trial=i,
-                                 seed=seed, checkpoint=str(checkpoint),
+                                 seed=seed, checkpoint=str(frozen),
                                  camera=ckpt.config.obs_mode == "image", duration=duration,
                                  html=html))
     if len(jobs) < len(embodiments) * len(tasks) * len(seeds):

@@ -33,6 +33,15 @@ Choices where the appendix is loose (each is tested in ``tests/test_invariants.p
   and needs T >= 2; counted as T + 1 *poses* the last listed row would need one pose beyond
   the window, and we drop it (truncation, never padding). So the last delta of a window
   enters phi only through ``th2`` of the last row; its magnitude does not enter at all.
+* **The loss's tail.** That makes the appendix's L_invar nearly blind to a single predicted
+  action: with the dataset's history of 2, the window has 3 deltas and one row, and only
+  ``th2`` (2 of the 10 values, direction out of the plane of the last two steps) depends on
+  the prediction; predicting 3 times the demonstrated action costs nothing. ``invariant_loss``
+  therefore also compares the window's *tail*, what the window does define past its last
+  full row: ``m`` and ``th1`` of segment N-2 (the turn into the last segment) and ``m`` of the
+  last segment, per block (8 values). They are built from the same axes, so they keep every
+  property tested for phi (invariance, continuity, finite gradients); ``tail=False`` gives
+  the appendix's loss.
 * **Continuous axes.** ``x_k`` is never sign-flipped (a reversal is real motion). ``y_0`` has
   the sign of ``x_0 x x_1`` (so ``th1_0 >= 0``); every later ``y_k`` is flipped when it would
   point against ``y_{k-1}`` (``y_k . y_{k-1} < 0``), so the frame follows the curve through
@@ -55,9 +64,9 @@ Choices where the appendix is loose (each is tested in ``tests/test_invariants.p
   values and gradients are finite everywhere, also at rest and on straight lines. ``eps``
   (default 1e-6, in metres and radians per step) is the motion resolution: raise it to treat
   sensor jitter as rest; gradients w.r.t. an action scale like 1 / max(|action|, eps).
-* **Loss.** ``invariant_loss`` is the squared L2 distance between phi of the history with the
-  predicted action(s) appended and phi of the history with the demonstrated action(s)
-  appended, summed over rows and the 10 values per sample, then averaged over the batch
+* **Loss.** ``invariant_loss`` is the squared L2 distance between phi (and its tail) of the
+  history with the predicted action(s) appended and of the history with the demonstrated
+  action(s) appended, summed over rows and values per sample, then averaged over the batch
   (the reference's ``MSELoss`` pair averaged over the 5 values of each block instead, i.e.
   1/5 of this for one row). m_p and m_r are in metres and radians per step and so weigh
   little next to the sines, as in the paper.
@@ -369,8 +378,9 @@ def _sin_sin2(s: Array, c: Array, eps2: float) -> tuple[Array, Array]:
     return s / _xp(s).sqrt(r2), 2 * s * c / r2
 
 
-def _dhb_block(v: Array, eps: float) -> Array:
-    """The 5 values (m, sin th1, sin 2th1, sin th2, sin 2th2) of (..., N, 3) segments."""
+def _dhb_block(v: Array, eps: float) -> tuple[Array, Array]:
+    """The rows (..., N-2, 5) of values (m, sin th1, sin 2th1, sin th2, sin 2th2) of (..., N, 3)
+    segments, and the tail (..., 4): (m_{N-2}, sin th1_{N-2}, sin 2th1_{N-2}, m_{N-1})."""
     xp = _xp(v)
     eps2 = eps * eps
     x = _normalize(_carried_directions(v, eps2, _const([1.0, 0.0, 0.0], v)))
@@ -386,9 +396,15 @@ def _dhb_block(v: Array, eps: float) -> Array:
     y_k, y_k1 = y[..., :-1, :], y[..., 1:, :]
     sin1, sin21 = _sin_sin2(_dot(raw_y[..., :-1, :], y_k), _dot(x_k, x_k1), eps2)
     sin2, sin22 = _sin_sin2(_dot(_cross(y_k, y_k1), x_k1), _dot(y_k, y_k1), eps2)
-    n2 = _dot(v[..., :-2, :], v[..., :-2, :])
+    n2 = _dot(v, v)
     magnitude = n2 / xp.sqrt(n2 + eps2)
-    return xp.stack([magnitude, sin1, sin21, sin2, sin22], -1)
+    rows = xp.stack([magnitude[..., :-2], sin1, sin21, sin2, sin22], -1)
+    # What the window defines past its last full row: th1 between the last two segments and
+    # the magnitudes of both (th2 there would need one segment more).
+    tail_sin1, tail_sin21 = _sin_sin2(_dot(raw_y[..., -1, :], y[..., -1, :]),
+                                      _dot(x[..., -2, :], x[..., -1, :]), eps2)
+    tail = xp.stack([magnitude[..., -2], tail_sin1, tail_sin21, magnitude[..., -1]], -1)
+    return rows, tail
 
 
 def invariants_from_segments(linear: Array, angular: Array, eps: float = DEFAULT_EPS) -> Array:
@@ -400,19 +416,32 @@ def invariants_from_segments(linear: Array, angular: Array, eps: float = DEFAULT
     if linear.shape[-2] < 3 or linear.shape != angular.shape or linear.shape[-1] != 3:
         raise ValueError("need (..., N, 3) linear and angular segments with N >= 3, got "
                          f"{tuple(linear.shape)} and {tuple(angular.shape)}")
+    return _rows_and_tail(linear, angular, eps)[0]
+
+
+def _rows_and_tail(linear: Array, angular: Array, eps: float) -> tuple[Array, Array]:
+    """phi (..., N-2, 10) of N segments and its tail (..., 8): (m_p, sin th1_p, sin 2th1_p)
+    at row N-2, m_p of segment N-1, then the same 4 of the angular block."""
     xp = _xp(linear)
-    blocks = _dhb_block(xp.stack([linear, angular], -3), eps)  # both blocks in one pass
-    return xp.concatenate([blocks[..., 0, :, :], blocks[..., 1, :, :]], -1)
+    rows, tail = _dhb_block(xp.stack([linear, angular], -3), eps)  # both blocks in one pass
+    return (xp.concatenate([rows[..., 0, :, :], rows[..., 1, :, :]], -1),
+            xp.concatenate([tail[..., 0, :], tail[..., 1, :]], -1))
 
 
-def invariants_from_deltas(deltas: Array, eps: float = DEFAULT_EPS) -> Array:
-    """phi of (..., N, 6) pose deltas [dx, dy, dz, droll, dpitch, dyaw] -> (..., N-2, 10)."""
+def _segments_from_deltas(deltas: Array) -> tuple[Array, Array]:
+    """(..., N, 6) pose deltas -> the segments' linear parts in the window's initial frame and
+    their rotation vectors, (..., N, 3) each."""
     deltas = _as_float(deltas)
     if deltas.shape[-1] != 6:
         raise ValueError(f"deltas must be (..., N, 6), got {tuple(deltas.shape)}")
     linear = _mat_vec(_orientations(deltas)[..., :-1, :, :], deltas[..., :3])
     angular = quaternion_to_rotation_vector(rpy_to_quaternion(deltas[..., 3:6]))
-    return invariants_from_segments(linear, angular, eps)
+    return linear, angular
+
+
+def invariants_from_deltas(deltas: Array, eps: float = DEFAULT_EPS) -> Array:
+    """phi of (..., N, 6) pose deltas [dx, dy, dz, droll, dpitch, dyaw] -> (..., N-2, 10)."""
+    return invariants_from_segments(*_segments_from_deltas(deltas), eps)
 
 
 def invariants_from_poses(positions: Array, rotations: Array, eps: float = DEFAULT_EPS) -> Array:
@@ -442,14 +471,17 @@ def invariants_from_poses(positions: Array, rotations: Array, eps: float = DEFAU
 
 def invariant_loss(history: Array, predicted: Array, demonstrated: Array, *,
                    reduction: Literal["mean", "sum", "none"] = "mean",
-                   eps: float = DEFAULT_EPS) -> Array:
+                   eps: float = DEFAULT_EPS, tail: bool = True) -> Array:
     """L_invar: ``|phi(history + predicted) - phi(history + demonstrated)|^2``.
 
     ``history`` (..., T, 6) deltas, oldest first. ``predicted`` and ``demonstrated`` are one
     action (..., 6) (appendix A, needs T >= 2) or a chunk (..., P+1, 6) (appendix B); history
     and demonstration are converted to the prediction's kind, dtype and device. The
     squared distance is summed over rows and values per sample; ``reduction`` then takes the
-    mean or sum over the batch dims, or returns them ("none").
+    mean or sum over the batch dims, or returns them ("none"). With ``tail`` (the default) the
+    window's tail (m and th1 past the last full row, see the module docstring) is compared
+    too; ``tail=False`` is the appendix's rows alone, in which a single predicted action
+    enters through th2 only and its magnitude not at all.
     """
     predicted = _as_float(predicted)  # the others follow its kind, dtype and device
     history, demonstrated = _const(history, predicted), _const(demonstrated, predicted)
@@ -464,8 +496,10 @@ def invariant_loss(history: Array, predicted: Array, demonstrated: Array, *,
     xp = _xp(predicted)
     windows = xp.stack([xp.concatenate([history, predicted], -2),
                         xp.concatenate([history, demonstrated], -2)], 0)
-    phi = invariants_from_deltas(windows, eps)
-    per_sample = ((phi[0] - phi[1]) ** 2).sum((-2, -1))
+    rows, ends = _rows_and_tail(*_segments_from_deltas(windows), eps)
+    per_sample = ((rows[0] - rows[1]) ** 2).sum((-2, -1))
+    if tail:
+        per_sample = per_sample + ((ends[0] - ends[1]) ** 2).sum(-1)
     if reduction == "none":
         return per_sample
     if reduction == "sum":

@@ -81,6 +81,34 @@ def test_training_seeds_and_foreign_results_are_refused(tmp_path, checkpoint):
         load_results(tmp_path / "x.json")
 
 
+def test_a_changed_checkpoint_or_duration_is_not_mixed_in(tmp_path, checkpoint, monkeypatch):
+    monkeypatch.setattr(evaluation, "_run_trial", _fake_trial)
+    ckpt = tmp_path / "model.pt"
+    ckpt.write_bytes(checkpoint.read_bytes())
+    out = tmp_path / "results"
+    doc = evaluate(ckpt, ["abstract"], ["lid"], 1, out, duration=5.0, progress=False)
+    assert doc["checkpoint_sha256"] == evaluation.file_sha256(ckpt)
+    assert evaluation.file_sha256(out / "tiny.pt") == doc["checkpoint_sha256"]  # the frozen copy
+    with pytest.raises(ConfigError, match="--duration"):
+        evaluate(ckpt, ["abstract"], ["lid"], 2, out, duration=9.0, progress=False)
+    train(tiny_config(steps=3), synthetic_dataset(tmp_path / "d.hdf5", demos=3, length=10,
+                                                  images=False), tmp_path / "run",
+          progress=False)
+    ckpt.write_bytes((tmp_path / "run" / "best.pt").read_bytes())  # retrained in place
+    with pytest.raises(ConfigError, match="checkpoint_sha256"):
+        evaluate(ckpt, ["abstract"], ["lid"], 2, out, duration=5.0, progress=False)
+
+
+def test_a_trial_that_raises_is_a_recorded_failure(tmp_path, checkpoint, monkeypatch):
+    def boom(scenario, html=None):
+        raise RuntimeError("the solver diverged")
+
+    monkeypatch.setattr("legato_drake.episode.run_episode", boom)
+    doc = evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False)
+    (trial,) = doc["trials"]
+    assert not trial["success"] and "the solver diverged" in trial["reason"]
+
+
 def test_scenario_checks_the_checkpoint_field(tmp_path):
     from legato_drake.scenario import Scenario
 

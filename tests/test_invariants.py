@@ -440,10 +440,13 @@ def test_chunk_loss_zero_positive_and_differentiable() -> None:
                                per_sample.sum())
     loss.backward()
     assert torch.isfinite(predicted.grad).all() and predicted.grad.abs().sum() > 0
-    # appendix B: phi over history + chunk, compared as a whole
+    # appendix B: phi over history + chunk, compared as a whole (plus the tail by default)
     phi_p = inv.invariants_from_deltas(torch.cat([history, predicted.detach()], -2))
     phi_d = inv.invariants_from_deltas(torch.cat([history, demo], -2))
-    torch.testing.assert_close(per_sample.detach(), ((phi_p - phi_d) ** 2).sum((-2, -1)))
+    appendix = inv.invariant_loss(history, predicted.detach(), demo, reduction="none",
+                                  tail=False)
+    torch.testing.assert_close(appendix, ((phi_p - phi_d) ** 2).sum((-2, -1)))
+    assert (per_sample.detach() > appendix).all()
     # one action is the chunk with P = 0
     torch.testing.assert_close(
         inv.invariant_loss(history, predicted.detach()[:, 0], demo[:, 0], reduction="none"),
@@ -452,6 +455,24 @@ def test_chunk_loss_zero_positive_and_differentiable() -> None:
         inv.invariant_loss(history, predicted[:, :2], demo)
     with pytest.raises(ValueError):
         inv.invariant_loss(history, predicted, demo, reduction="max")
+
+
+def test_the_tail_makes_a_single_action_count() -> None:
+    """With the dataset's history of 2, the appendix's rows see a single predicted action
+    only through th2: moving 3 times as far costs nothing. The tail compares its turn (th1)
+    and magnitude too."""
+    gen = torch.Generator().manual_seed(9)
+    history = torch.randn(16, 2, 6, generator=gen, dtype=torch.float64) * 0.01
+    demo = torch.randn(16, 6, generator=gen, dtype=torch.float64) * 0.01
+    scaled = torch.cat([3.0 * demo[:, :3], demo[:, 3:]], -1)  # 3 times as far, same turn
+    assert inv.invariant_loss(history, scaled, demo, tail=False).item() < 1e-20
+    assert inv.invariant_loss(history, scaled, demo).item() > 1e-6
+    turned = torch.cat([demo[:, 1:3], demo[:, :1], demo[:, 3:]], -1)  # the same magnitude
+    assert inv.invariant_loss(history, turned, demo).item() > \
+        inv.invariant_loss(history, turned, demo, tail=False).item()
+    action = scaled.clone().requires_grad_()
+    inv.invariant_loss(history, action, demo).backward()
+    assert (action.grad[:, :3].abs().sum(0) > 0).all()
 
 
 def windows_for_training(count: int, history: int) -> tuple[torch.Tensor, torch.Tensor]:
@@ -468,7 +489,7 @@ def test_network_trained_on_invariant_loss_alone_reduces_it() -> None:
                               torch.nn.Linear(64, 6))
     optimizer = torch.optim.Adam(net.parameters(), lr=3e-3)
     losses = []
-    for _ in range(300):
+    for _ in range(600):
         loss = inv.invariant_loss(history, 0.05 * net(history / 0.05), demo)
         optimizer.zero_grad()
         loss.backward()

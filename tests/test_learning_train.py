@@ -55,6 +55,9 @@ def test_config_errors_name_the_field_and_the_file(tmp_path):
     with pytest.raises(ConfigError, match="unknown field 'invariant'"):
         apply_overrides(tiny_config(), ["invariant=0"])
     assert apply_overrides(tiny_config(), ["invariant_weight=0"]).invariant_weight == 0.0
+    assert apply_overrides(tiny_config(), ["lr=1e-4"]).lr == 1e-4  # YAML 1.1's string
+    with pytest.raises(ConfigError, match="lr in --set must be a number"):
+        apply_overrides(tiny_config(), ["lr=fast"])
     save_config(tiny_config(), tmp_path / "round.yaml")
     assert load_config(tmp_path / "round.yaml") == tiny_config()
 

@@ -7,6 +7,7 @@ e.g. ``--set invariant_weight=0`` trains the same network without L_invar (the "
 """
 
 # No ``from __future__ import annotations``: the field checks read the real types.
+import contextlib
 import dataclasses
 import math
 from dataclasses import dataclass, field
@@ -66,6 +67,9 @@ class LearningConfig:
     grasp_weight: float = 0.2
     invariant_weight: float = 0.005
     """Weight of L_invar; 0 trains without it (the paper's "LEGATO (SE3)" / plain BC-RNN)."""
+    invariant_tail: bool = True
+    """Compare the window's tail too (``invariants.invariant_loss``): without it a single
+    predicted action enters L_invar through th2 alone; false gives the appendix's loss."""
     valid_every: int = 200
     """Steps between validation losses (and ``best.pt`` updates)."""
     valid_batches: int = 8
@@ -144,6 +148,9 @@ def _coerce(name: str, value: object, where: str) -> object:
         if isinstance(value, bool) or not isinstance(value, int):
             raise ConfigError(f"{name}{place} must be an integer, got {value!r}")
     elif kind is float:
+        if isinstance(value, str):  # YAML 1.1 reads 1e-4 (no dot) as a string
+            with contextlib.suppress(ValueError):
+                value = float(value)
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise ConfigError(f"{name}{place} must be a number, got {value!r}")
         value = float(value)

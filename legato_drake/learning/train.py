@@ -116,11 +116,20 @@ def _read_log(path: Path, upto: int) -> list[dict]:
 
 
 def _write_log(path: Path, rows: list[dict]) -> None:
+    """Rewrites the log with ``rows`` (atomically): once per run, to cut a resumed run's log
+    back to its checkpoint's step."""
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=LOG_COLUMNS)
     writer.writeheader()
     writer.writerows(rows)
     atomic_write_text(path, buffer.getvalue())
+
+
+def _append_log(path: Path, rows: list[dict]) -> None:
+    """Appends ``rows`` to the log (before the checkpoint of their last step is written, so a
+    resume that cuts the log back to the checkpoint never loses or repeats a row)."""
+    with open(path, "a", newline="") as f:
+        csv.DictWriter(f, fieldnames=LOG_COLUMNS).writerows(rows)
 
 
 def _tensorboard(out: Path):
@@ -197,7 +206,8 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
     out.mkdir(parents=True, exist_ok=True)
     save_config(config, out / "config.yaml")
     log_path = out / "log.csv"
-    rows = _read_log(log_path, ckpt.step)
+    _write_log(log_path, _read_log(log_path, ckpt.step))
+    rows: list[dict] = []  # not yet in the log file
     board = _tensorboard(out)
     sampler = StepBatchSampler(len(dataset), config.batch_size, config.seed, ckpt.step,
                                total_steps)
@@ -208,15 +218,17 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
     policy.train()
     for batch in loader:
         losses = policy.losses(_to_device(batch, device))
+        row = {k: float(v.detach()) for k, v in losses.items()}
         optimizer.zero_grad(set_to_none=True)
         losses["total"].backward()
-        if config.grad_clip > 0:
-            torch.nn.utils.clip_grad_norm_(policy.parameters(), config.grad_clip)
+        grad_norm = torch.nn.utils.clip_grad_norm_(
+            policy.parameters(), config.grad_clip if config.grad_clip > 0 else math.inf)
+        if not (math.isfinite(row["total"]) and math.isfinite(float(grad_norm))):
+            # before the step: the weights (and the checkpoints) stay finite
+            raise FloatingPointError(f"non-finite loss or gradient at step {ckpt.step + 1}: "
+                                     f"{row}, gradient norm {float(grad_norm)}")
         optimizer.step()
         ckpt.step += 1
-        row = {k: float(v.detach()) for k, v in losses.items()}
-        if not math.isfinite(row["total"]):
-            raise FloatingPointError(f"non-finite loss at step {ckpt.step}: {row}")
         row.update(step=ckpt.step, lr=config.lr)
         if valid is not None and ckpt.step % config.valid_every == 0:
             scores = validation_losses(policy, valid, config, device)
@@ -232,13 +244,17 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
         bar.update(1)
         bar.set_postfix(loss=f"{row['total']:.3f}")
         if ckpt.step % config.checkpoint_every == 0 or ckpt.step == total_steps:
+            _append_log(log_path, rows)
+            rows.clear()
             save_checkpoint(last, ckpt, optimizer)
-            _write_log(log_path, rows)
     bar.close()
+    if board is not None:
+        board.close()
+    _append_log(log_path, rows)
     if valid is None or not (out / "best.pt").is_file():
         save_checkpoint(out / "best.pt", ckpt, optimizer)
     save_checkpoint(last, ckpt, optimizer)
-    _write_log(log_path, rows)
     ckpt.optimizer = optimizer.state_dict()
+    policy.eval()
     log.info("trained %s to step %d; checkpoints in %s", config.name, ckpt.step, out)
     return ckpt

@@ -11,7 +11,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, State
 
 from legato_drake import conventions
-from legato_drake.data.layout import HISTORY
+from legato_drake.data.layout import HISTORY, HISTORY_KEYS
 from legato_drake.errors import ConfigError
 from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint
 from legato_drake.learning.encoders import image_to_tensor
@@ -74,7 +74,7 @@ class PolicyController(LeafSystem):
         self._reset_every = ckpt.config.seq_length
         self._t_start = t_start
         self._images = {}
-        self._state_keys = list(self._policy.low_dim_keys[2:])
+        self._state_keys = [k for k in self._policy.low_dim_keys if k not in HISTORY_KEYS]
         self._features = features
         if ckpt.config.obs_mode == "image":
             blank = AbstractValue.Make(np.zeros((1, 1, 1), dtype=np.uint8))
