@@ -44,14 +44,14 @@ def time_controller(config_name: str, steps: int) -> list[float]:
     if config.obs_mode == "state":
         features = EpisodeRecorder(plant, robot.tcp_frame, images=False,
                                    object_bodies=object_bodies(plant, robot))
-        controller = PolicyController(ckpt, features)
+        controller = PolicyController(ckpt, features, threads=None)
         context = controller.CreateDefaultContext()
         controller.get_plant_state_input_port().FixValue(
             context, plant.GetPositionsAndVelocities(plant.CreateDefaultContext()))
         controller.get_commanded_pose_input_port().FixValue(
             context, [0.1, -0.3, 0.8, 1.0, 0.0, 0.0, 0.0])
     else:
-        controller = PolicyController(ckpt)
+        controller = PolicyController(ckpt, threads=None)
         context = controller.CreateDefaultContext()
         rng = np.random.default_rng(0)
         for port in controller.get_image_input_ports():

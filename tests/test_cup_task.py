@@ -11,7 +11,6 @@ from pydrake.systems.framework import DiagramBuilder
 
 from legato_drake import conventions
 from legato_drake.diagram import build_plant
-from legato_drake.episode import run_episode
 from legato_drake.scenario import Scenario
 from legato_drake.tasks.cup import (
     CUP_X,
@@ -98,20 +97,3 @@ def test_initial_state_is_a_failure_and_randomized_within_range(cup_plant):
     np.testing.assert_allclose(CUP_YAW, (0.65 * np.pi, 0.85 * np.pi))
     assert np.ptp(SHELF_X) == pytest.approx(0.075) and np.ptp(SHELF_Y) == pytest.approx(0.2)
     np.testing.assert_allclose(SHELF_YAW, (0.3 * np.pi, 0.4 * np.pi))
-
-
-def test_same_seed_same_final_state():
-    scenario = Scenario(embodiment="abstract", task="cup", seed=5, duration=6.0)
-    scenario.camera.enabled = False
-    a, b = run_episode(scenario), run_episode(scenario)
-    assert a.metrics == b.metrics and a.tracking == b.tracking
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("embodiment, seed", [("abstract", 1), ("panda", 2)])
-def test_scripted_expert_shelves_the_cup(embodiment, seed):
-    scenario = Scenario(embodiment=embodiment, task="cup", seed=seed)
-    scenario.camera.enabled = False
-    result = run_episode(scenario)
-    assert result.success, result.reason
-    assert result.tracking.rms_mm <= 5.0 and result.tracking.rms_deg <= 2.0

@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
 
 from legato_drake import conventions
+from legato_drake.diagram import build_plant
 from legato_drake.poses import apply_delta, pose_error
+from legato_drake.scenario import Scenario
 from legato_drake.systems.scripted_demonstrator import (
     ScriptedDemonstrator,
     min_jerk,
@@ -79,3 +83,22 @@ def test_done_after_the_script(panda_plant):
     Simulator(system, context).AdvanceTo(conventions.HOMING_DURATION + 60.0)
     assert system.GetOutputPort("done").Eval(context)[0] == 1.0
     np.testing.assert_array_equal(system.GetOutputPort("action").Eval(context)[:6], 0.0)
+
+
+@pytest.mark.parametrize("task_name", ["lid", "cup", "ladle"])
+def test_every_release_follows_the_end_of_a_motion(task_name):
+    """What a policy can imitate: the grasp opens on the step right after the gripper stopped
+    moving (an observable event), never after a hold in an unchanging scene (the Waypoint
+    rule)."""
+    plant, _, _, task = build_plant(Scenario(embodiment="abstract", task=task_name),
+                                    DiagramBuilder())
+    for seed in range(3):
+        context = plant.CreateDefaultContext()
+        task.set_initial_state(plant, context, np.random.default_rng(seed))
+        plan = task.plan_demonstration(plant, context, np.random.default_rng([seed, 1]))
+        script = script_from_waypoints(conventions.START_POSE, plan)
+        releases = np.flatnonzero((script.grasps[:-1] > 0.5) & (script.grasps[1:] < 0.5)) + 1
+        assert len(releases) == 1
+        for k in releases:
+            moved = np.linalg.norm(script.poses[k - 1, :3] - script.poses[k - 2, :3])
+            assert moved > 0.0, f"{task_name} seed {seed}: release after a hold"

@@ -55,6 +55,10 @@ class PolicyController(LeafSystem):
         done (1): always 0 (a policy never says it is done; the episode's time limit or
             success ends it).
 
+    ``threads`` sets torch's (process-wide) thread count: one by default, so that every entry
+    point (``evaluate``, a scenario, a notebook) computes the same actions bit for bit; None
+    leaves it as it is.
+
     State: abstract ``PolicyState`` (step, LSTM state, pose-delta history, action). The
     recorder's scratch context used to compute state features holds nothing between steps.
     """
@@ -64,7 +68,7 @@ class PolicyController(LeafSystem):
                  t_start: float = conventions.HOMING_DURATION,
                  period: float = conventions.POLICY_PERIOD,
                  offset: float = conventions.CONTROLLER_OFFSET,
-                 threads: int | None = None):
+                 threads: int | None = 1):
         super().__init__()
         if threads is not None:
             torch.set_num_threads(threads)

@@ -59,7 +59,6 @@ class LidTask(Task):
         self.lid = plant.GetBodyByName("lid", lid)
         self.lid_handle = plant.GetFrameByName("lid_handle", lid)
         self.pot_rim = plant.GetFrameByName("pot_rim", pot)
-        self._plant = plant
 
     def set_initial_state(self, plant: MultibodyPlant, context: Context,
                           rng: np.random.Generator) -> None:
