@@ -184,6 +184,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         SUMMARY_HEADERS,
         combine,
         evaluate,
+        failure_counts,
         plot_success,
         results_path,
         summarize,
@@ -206,6 +207,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     else:
         raise argparse.ArgumentTypeError("evaluate needs --checkpoint (or --plot FILES)")
     print(format_table(SUMMARY_HEADERS, summarize(trials)))
+    print(format_table(["method", "embodiment", "task", "failures by condition"],
+                       failure_counts(trials)))
     log.info("wrote %s", png)
     return 0
 

@@ -171,7 +171,7 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
 
     def record(row: dict) -> None:
         doc["trials"].append(row)
-        doc["trials"].sort(key=lambda t: (t["embodiment"], t["task"], t["seed"]))
+        doc["trials"].sort(key=trial_order)
         write_results(path, doc)
 
     if not jobs:
@@ -186,10 +186,22 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
     return doc
 
 
+def trial_order(trial: dict) -> tuple:
+    """Sort key of trials: embodiments and tasks in their registries' order (the paper's:
+    Abstract, Panda, Spot, Google Robot, GR-1), then the seed."""
+    from legato_drake.embodiments import EMBODIMENTS
+    from legato_drake.tasks import TASKS
+
+    def rank(name: str, registry: dict) -> tuple[int, str]:
+        return (list(registry).index(name) if name in registry else len(registry), name)
+
+    return (rank(trial["embodiment"], EMBODIMENTS), rank(trial["task"], TASKS), trial["seed"])
+
+
 def summarize(trials: Iterable[dict]) -> list[list]:
     """One row per (method, embodiment, task): successes, rate, Wilson 95 % interval, mean
     success time and mean wall time."""
-    trials = list(trials)
+    trials = sorted(trials, key=trial_order)
     rows = []
     for key in dict.fromkeys((t["method"], t["embodiment"], t["task"]) for t in trials):
         group = [t for t in trials if (t["method"], t["embodiment"], t["task"]) == key]
@@ -202,6 +214,31 @@ def summarize(trials: Iterable[dict]) -> list[list]:
     return rows
 
 
+def reason_kind(reason: str) -> str:
+    """A failure reason without its numbers ("lid centre 23.9 cm from the pot axis (max 3 cm)"
+    -> "lid centre"): the predicate's condition that failed, for counting."""
+    words = []
+    for word in reason.split():
+        if any(c.isdigit() for c in word):
+            break
+        words.append(word.rstrip(":"))
+        if word.endswith(":"):
+            break
+    return " ".join(words) or reason
+
+
+def failure_counts(trials: Iterable[dict]) -> list[list]:
+    """One row per (method, embodiment, task): how many trials failed by which condition."""
+    trials = sorted(trials, key=trial_order)
+    rows = []
+    for key in dict.fromkeys((t["method"], t["embodiment"], t["task"]) for t in trials):
+        kinds = [reason_kind(t["reason"]) for t in trials
+                 if (t["method"], t["embodiment"], t["task"]) == key and not t["success"]]
+        counts = sorted(((kinds.count(k), k) for k in set(kinds)), reverse=True)
+        rows.append([*key, ", ".join(f"{k} x{n}" for n, k in counts) or "-"])
+    return rows
+
+
 def plot_success(trials: Iterable[dict], png: str | Path, title: str = "") -> Path:
     """A bar chart of success rate per embodiment (groups) and method (bars) with 95 %
     Wilson intervals, like the paper's figures; several tasks become ``embodiment/task``."""
@@ -211,7 +248,7 @@ def plot_success(trials: Iterable[dict], png: str | Path, title: str = "") -> Pa
     import matplotlib.pyplot as plt
     import numpy as np
 
-    trials = list(trials)
+    trials = sorted(trials, key=trial_order)
     tasks = list(dict.fromkeys(t["task"] for t in trials))
     cells = list(dict.fromkeys(
         t["embodiment"] if len(tasks) == 1 else f"{t['embodiment']}/{t['task']}"

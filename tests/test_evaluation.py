@@ -16,6 +16,7 @@ from legato_drake.errors import ConfigError
 from legato_drake.evaluation import (
     combine,
     evaluate,
+    failure_counts,
     load_results,
     plot_success,
     results_path,
@@ -65,6 +66,10 @@ def test_results_are_written_per_trial_and_an_interrupted_run_resumes(tmp_path, 
         assert len(list(csv.DictReader(f))) == 4
     rows = summarize(doc["trials"])
     assert rows[0][:4] == ["tiny", "abstract", "lid", "1/2"] and rows[0][4] == 50.0
+    assert failure_counts(doc["trials"])[0][3] == "fake x1"
+    assert evaluation.reason_kind("lid still held: the fingers are open 1 mm") == \
+        "lid still held"
+    assert evaluation.reason_kind("lid centre 23.9 cm from the pot axis") == "lid centre"
     png = plot_success(combine([path]), tmp_path / "p.png")
     assert png.stat().st_size > 1000
 
