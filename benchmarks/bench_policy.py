@@ -31,7 +31,7 @@ from legato_drake.systems.policy_controller import PolicyController
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 DIMS = {"delta_positions": 6, "delta_eulers": 6, "tcp_commanded": 7, "tcp_measured": 7,
-        "object": 21, "fingers": 2, "actions": 7}
+        "object": 21, "object_in_tcp": 27, "fingers": 2, "actions": 7}
 
 
 def time_controller(config_name: str, steps: int) -> list[float]:

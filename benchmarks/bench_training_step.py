@@ -25,7 +25,7 @@ from legato_drake.report import format_table
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 DIMS = {"delta_positions": 6, "delta_eulers": 6, "tcp_commanded": 7, "tcp_measured": 7,
-        "object": 21, "fingers": 2, "actions": 7}
+        "object": 21, "object_in_tcp": 27, "fingers": 2, "actions": 7}
 BATCH, SEQUENCE = 16, 20
 
 

@@ -19,7 +19,7 @@ B, T = 3, 5
 def _stats(state: bool = True) -> dict:
     rng = np.random.default_rng(0)
     dims = {"delta_positions": 6, "delta_eulers": 6, "tcp_commanded": 7, "object": 21,
-            "fingers": 2, "actions": 7}
+            "object_in_tcp": 27, "fingers": 2, "actions": 7}
     return {k: compute_stats([rng.normal(0, 0.01, (50, d))]) for k, d in dims.items()}
 
 
@@ -28,7 +28,8 @@ def _batch(image: int = 0) -> dict:
     obs = {"delta_positions": 0.01 * torch.randn(B, T, 6, generator=g),
            "delta_eulers": 0.01 * torch.randn(B, T, 6, generator=g),
            "tcp_commanded": torch.randn(B, T, 7, generator=g),
-           "object": torch.randn(B, T, 21, generator=g), "fingers": torch.rand(B, T, 2)}
+           "object": torch.randn(B, T, 21, generator=g),
+           "object_in_tcp": torch.randn(B, T, 27, generator=g), "fingers": torch.rand(B, T, 2)}
     if image:
         obs["left_gray"] = torch.rand(B, T, 1, image, image, generator=g)
         obs["right_gray"] = torch.rand(B, T, 1, image, image, generator=g)

@@ -8,6 +8,7 @@ import torch
 from pydrake.systems.analysis import Simulator
 
 from legato_drake import conventions
+from legato_drake.data.derived import object_in_tcp
 from legato_drake.diagram import object_bodies
 from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from legato_drake.learning.policies import RecurrentGMMPolicy
@@ -23,7 +24,7 @@ def _checkpoint(tmp_path, mode: str, **changes):
     config = tiny_config(obs_mode=mode, **changes)
     rng = np.random.default_rng(0)
     dims = {"delta_positions": 6, "delta_eulers": 6, "tcp_commanded": 7, "object": 21,
-            "fingers": 2, "actions": 7}
+            "object_in_tcp": 27, "fingers": 2, "actions": 7}
     stats = {k: {"mean": rng.normal(0, 0.01, d).astype(np.float32),
                  "std": np.full(d, 0.05, np.float32)} for k, d in dims.items()}
     path = tmp_path / f"{mode}.pt"
@@ -58,7 +59,8 @@ def _run(controller, context, steps: int) -> list[np.ndarray]:
 
 def test_state_policy_steps_resets_and_carries_its_history(tmp_path, abstract_plant):
     plant, _, robot, _ = abstract_plant
-    path = _checkpoint(tmp_path, "state", seq_length=4)
+    keys = ["tcp_commanded", "object", "object_in_tcp", "fingers"]
+    path = _checkpoint(tmp_path, "state", seq_length=4, state_keys=keys)
     features = EpisodeRecorder(plant, robot.tcp_frame, images=False,
                                object_bodies=object_bodies(plant, robot))
     controller = PolicyController(path, features)
@@ -76,27 +78,26 @@ def test_state_policy_steps_resets_and_carries_its_history(tmp_path, abstract_pl
     np.testing.assert_allclose(state.history, np.array(actions[-2:])[:, :6])
     assert controller.GetOutputPort("done").Eval(context)[0] == 0.0
 
-    # The same features as the recorder's samples (its own code computes them).
+    # The same features as the recorder's samples (its own code computes them), and the
+    # derived ones as the Dataset derives them.
     log_context = features.CreateDefaultContext()
-    log_context.SetTime(T0)
     features.get_action_input_port().FixValue(log_context, np.zeros(7))
     features.get_plant_state_input_port().FixValue(log_context, x)
     features.get_commanded_pose_input_port().FixValue(log_context, commanded)
-    features._record(log_context)
-    sample = features.log(log_context).to_arrays()
+    sample = features.sample(log_context)
     obs = controller.observation(context, np.zeros((2, 6)))
     for key in ("tcp_commanded", "object", "fingers"):
-        np.testing.assert_allclose(obs[key].numpy(), sample[key].astype(np.float32))
-    assert obs["object"].shape == (1, 21)
+        np.testing.assert_allclose(obs[key].numpy()[0], sample[key].astype(np.float32))
+    np.testing.assert_allclose(obs["object_in_tcp"].numpy()[0],
+                               object_in_tcp(sample["tcp_commanded"], sample["object"]),
+                               rtol=1e-6, atol=1e-6)
+    assert obs["object"].shape == (1, 21) and obs["object_in_tcp"].shape == (1, 27)
 
     policy = load_checkpoint(path).policy
-    expected = _expected_actions(
-        policy, lambda: {k: obs[k] for k in ("tcp_commanded", "object", "fingers")},
-        steps, reset=4)
+    expected = _expected_actions(policy, lambda: {k: obs[k] for k in keys}, steps, reset=4)
     np.testing.assert_allclose(np.array(actions), expected, rtol=1e-5, atol=1e-6)
-    no_reset = _expected_actions(
-        policy, lambda: {k: obs[k] for k in ("tcp_commanded", "object", "fingers")},
-        steps, reset=1000)
+    no_reset = _expected_actions(policy, lambda: {k: obs[k] for k in keys}, steps,
+                                 reset=1000)
     assert not np.allclose(no_reset[4:], expected[4:])
 
 

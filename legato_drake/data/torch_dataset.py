@@ -10,7 +10,8 @@ robomimic) a window that runs past the end of its demo is padded by repeating th
 and ``pad_mask`` is False on the padding; without it, windows lie inside demos (demos shorter
 than ``seq_length`` are skipped). Images ``left_gray``/``right_gray`` come channels-first,
 ``(L, 1, H, W)``: uint8 in [0, 255] with ``image_dtype="uint8"``, float32 in [0, 1] with
-``"float"`` (default). Low-dim observations are float32.
+``"float"`` (default). Low-dim observations are float32; derived ones (``data.derived``, e.g.
+``object_in_tcp``) are computed from the stored ones on load.
 
 The file is validated on load (layout, format version, NaNs, masks, the requested keys) and
 any problem is a DatasetError naming the file. Low-dim data is read into memory at once;
@@ -29,6 +30,7 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
+from legato_drake.data.derived import available_observations, read_observation
 from legato_drake.data.layout import (
     IMAGE_KEYS,
     POLICY_OBS_KEYS,
@@ -85,15 +87,16 @@ class DemoSequenceDataset(Dataset):
             data = {}
             for name in names:
                 demo = f["data"][name]
-                missing = [k for k in self.obs_keys if k not in demo["obs"]]
+                available = available_observations(list(demo["obs"]))
+                missing = [k for k in self.obs_keys if k not in available]
                 if missing:
                     raise DatasetError(
                         f"{self.path}: {name} has no observation(s) {', '.join(missing)}; "
-                        f"available: {', '.join(demo['obs'])}")
+                        f"available: {', '.join(sorted(available))}")
                 arrays = {key: demo[key][()].astype(np.float32)
                           for key in ("actions", "rewards", "dones")}
                 for key in self._low_dim_keys:
-                    arrays[f"obs/{key}"] = demo["obs"][key][()].astype(np.float32)
+                    arrays[f"obs/{key}"] = read_observation(demo["obs"], key).astype(np.float32)
                 if cache_images:
                     for key in self._image_keys:
                         arrays[f"obs/{key}"] = demo["obs"][key][()]

@@ -20,8 +20,9 @@ from legato_drake.errors import ConfigError
 ALGOS = ("legato", "bc_rnn")
 OBS_MODES = ("image", "state")
 ENCODERS = ("resnet18", "small")
-STATE_KEYS = ("tcp_commanded", "tcp_measured", "object", "fingers")
-"""Privileged observations a ``state`` policy may use (what the EpisodeRecorder records)."""
+STATE_KEYS = ("tcp_commanded", "tcp_measured", "object", "object_in_tcp", "fingers")
+"""Privileged observations a ``state`` policy may use: what the EpisodeRecorder records and
+what ``data.derived`` computes from it."""
 
 
 @dataclass
@@ -36,8 +37,7 @@ class LearningConfig:
     obs_mode: str = "image"
     """``image``: the two gripper images + pose-delta history (the paper's); ``state``: the
     privileged state features ``state_keys`` + pose-delta history (fast, for CPU)."""
-    state_keys: list[str] = field(default_factory=lambda: ["tcp_commanded", "object",
-                                                           "fingers"])
+    state_keys: list[str] = field(default_factory=lambda: ["object_in_tcp", "fingers"])
     """Privileged observations of the ``state`` mode (``STATE_KEYS``)."""
     encoder: str = "resnet18"
     """Image trunk: ``resnet18`` (the paper's, not pretrained, 1 channel) or ``small``."""

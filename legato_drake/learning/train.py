@@ -4,7 +4,8 @@
 
 * ``config.yaml``: the run's config (also inside every checkpoint);
 * ``log.csv``: one row per step (``step, nll, ce, invar, total, lr``) and, every
-  ``valid_every`` steps, the validation losses (``valid_*`` columns; empty otherwise);
+  ``valid_every`` steps, the validation losses (``valid_*`` columns; empty otherwise),
+  appended at every checkpoint (a resumed run first cuts it back to its checkpoint's step);
 * ``last.pt`` (every ``checkpoint_every`` steps and at the end) and ``best.pt`` (lowest
   validation total loss), each with the config, the normalisation statistics, the step and
   the optimizer state; TensorBoard events too if ``tensorboard`` happens to be installed.
@@ -29,6 +30,7 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader, Sampler
 
+from legato_drake.data.derived import available_observations, read_observation
 from legato_drake.data.layout import DatasetError, open_dataset, sorted_demos
 from legato_drake.data.torch_dataset import DemoSequenceDataset
 from legato_drake.errors import ConfigError
@@ -79,7 +81,7 @@ def check_data(path: Path, config: LearningConfig) -> list[int]:
         names = sorted_demos(f["data"])
         if not names:
             raise DatasetError(f"{path} holds no demos")
-        available = set(f["data"][names[0]]["obs"])
+        available = available_observations(list(f["data"][names[0]]["obs"]))
         missing = [k for k in config.obs_keys if k not in available]
         if missing:
             hint = (" (a state-only dataset: collect with the camera, or use obs_mode: state)"
@@ -97,8 +99,8 @@ def dataset_stats(path: Path, config: LearningConfig) -> dict[str, dict[str, np.
     keys = [k for k in config.obs_keys if not k.endswith("_gray")]
     with h5py.File(path, "r") as f:
         names = mask_names(f, "train") or sorted_demos(f["data"])
-        stats = {k: compute_stats([f["data"][n]["obs"][k][()] for n in names], OBS_MIN_STD)
-                 for k in keys}
+        stats = {k: compute_stats([read_observation(f["data"][n]["obs"], k) for n in names],
+                                  OBS_MIN_STD) for k in keys}
         stats["actions"] = compute_stats([f["data"][n]["actions"][()] for n in names])
     return stats
 

@@ -11,6 +11,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, State
 
 from legato_drake import conventions
+from legato_drake.data.derived import VALUES_PER_BODY, read_observation
 from legato_drake.data.layout import HISTORY, HISTORY_KEYS
 from legato_drake.errors import ConfigError
 from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint
@@ -42,7 +43,8 @@ class PolicyController(LeafSystem):
     before the first ones, as ``data.layout.delta_history``), plus either the two camera
     images (``image_to_tensor``: the preprocessing of training) or the privileged state
     features, computed by the ``EpisodeRecorder`` ``features`` itself (the very code that
-    recorded the dataset). It runs the policy under ``torch.no_grad`` and outputs the
+    recorded the dataset) and ``data.derived.read_observation`` (the code that derives
+    observations for training). It runs the policy under ``torch.no_grad`` and outputs the
     low-noise GMM mode. The LSTM state is reset every ``seq_length`` steps (the training
     horizon).
 
@@ -88,13 +90,13 @@ class PolicyController(LeafSystem):
             if features is None:
                 raise ValueError("a state-mode policy needs the EpisodeRecorder 'features' "
                                  "that computes its state observations")
-            if "object" in self._state_keys:
-                trained = len(ckpt.stats["object"]["mean"])
-                here = 7 * len(features.object_body_names)
+            for key in set(self._state_keys) & set(VALUES_PER_BODY):
+                trained = len(ckpt.stats[key]["mean"]) // VALUES_PER_BODY[key]
+                here = len(features.object_body_names)
                 if trained != here:
                     raise ConfigError(
-                        f"the policy was trained with {trained // 7} object bodies, this scene "
-                        f"has {here // 7} ({', '.join(features.object_body_names)}): a "
+                        f"the policy was trained with {trained} object bodies, this scene "
+                        f"has {here} ({', '.join(features.object_body_names)}): a "
                         "state policy runs on the task it was trained on")
             plant_port = features.get_plant_state_input_port()
             self._plant_state = self.DeclareVectorInputPort("plant_state", plant_port.size())
@@ -147,7 +149,8 @@ class PolicyController(LeafSystem):
                                                          self._commanded.Eval(context))
             sample = rec.sample(self._scratch)  # the recorder's own feature code
             for key in self._state_keys:
-                obs[key] = torch.from_numpy(sample[key][None].astype(np.float32))
+                value = read_observation(sample, key)  # derived ones as in training
+                obs[key] = torch.from_numpy(value[None].astype(np.float32))
         return obs
 
     def _step(self, context: Context, state: State) -> None:
