@@ -88,8 +88,8 @@ def test_done_after_the_script(panda_plant):
 @pytest.mark.parametrize("task_name", ["lid", "cup", "ladle"])
 def test_every_release_follows_the_end_of_a_motion(task_name):
     """What a policy can imitate: the grasp opens on the step right after the gripper stopped
-    moving (an observable event), never after a hold in an unchanging scene (the Waypoint
-    rule)."""
+    moving from full speed (an observable event), never after a hold in an unchanging scene
+    or a minimum-jerk creep (the Waypoint rule)."""
     plant, _, _, task = build_plant(Scenario(embodiment="abstract", task=task_name),
                                     DiagramBuilder())
     for seed in range(3):
@@ -101,4 +101,5 @@ def test_every_release_follows_the_end_of_a_motion(task_name):
         assert len(releases) == 1
         for k in releases:
             moved = np.linalg.norm(script.poses[k - 1, :3] - script.poses[k - 2, :3])
-            assert moved > 0.0, f"{task_name} seed {seed}: release after a hold"
+            assert moved > 0.004, f"{task_name} seed {seed}: release after a hold or a creep"
+            np.testing.assert_allclose(script.poses[k], script.poses[k - 1])  # stopped

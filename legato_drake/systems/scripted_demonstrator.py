@@ -41,9 +41,14 @@ def min_jerk(s: float) -> float:
     return s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
 
 
+PROFILES = {"min_jerk": min_jerk, "stop": lambda s: s}
+"""Time scalings of a move (``Waypoint.profile``)."""
+
+
 def script_from_waypoints(X_start: RigidTransform, waypoints: list[Waypoint],
                           period: float = conventions.POLICY_PERIOD) -> Script:
-    """Samples straight-line, minimum-jerk moves through ``waypoints`` every ``period``."""
+    """Samples straight-line moves through ``waypoints`` every ``period`` (each with its
+    waypoint's time scaling, minimum-jerk by default)."""
     poses: list[RigidTransform] = []
     grasps: list[float] = []
     X_prev = X_start
@@ -52,8 +57,9 @@ def script_from_waypoints(X_start: RigidTransform, waypoints: list[Waypoint],
         angle = (X_prev.rotation().inverse() @ wp.pose.rotation()).ToAngleAxis().angle()
         duration = max(distance / wp.speed, angle / ANGULAR_SPEED)
         steps = math.ceil(duration / period - 1e-9)
+        scaling = PROFILES[wp.profile]
         for k in range(1, steps + 1):
-            poses.append(interpolate(X_prev, wp.pose, min_jerk(k / steps)))
+            poses.append(interpolate(X_prev, wp.pose, scaling(k / steps)))
             grasps.append(float(wp.grasp))
         for _ in range(round(wp.hold / period)):
             poses.append(wp.pose)

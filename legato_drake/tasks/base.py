@@ -37,7 +37,11 @@ class Waypoint:
     Plans are imitated, so every change of grasp must follow something a policy observes:
     release on arrival (the motion ending), not after a hold in an unchanging scene; a
     policy cannot tell the held steps apart and, taking the most likely grasp, never lets go.
-    A hold while the fingers move (the grasp) is fine: the fingers are observed."""
+    A hold while the fingers move (the grasp) is fine: the fingers are observed. The move
+    that ends in a release is ``stop``-profiled (constant speed to the end): then stopping
+    and releasing happen together in the data, and a policy that stops near the goal
+    releases, where a minimum-jerk ending's creeping last steps (all "keep holding") would
+    teach it to stop and hold."""
 
     pose: RigidTransform
     """Target pose of the gripper TCP in the world."""
@@ -47,6 +51,9 @@ class Waypoint:
     """Cruise speed (m/s) of the move to this waypoint."""
     hold: float = 0.0
     """Seconds to stay at the waypoint after reaching it."""
+    profile: str = "min_jerk"
+    """Time scaling of the move: ``min_jerk`` (smooth start and stop) or ``stop`` (constant
+    speed, stopping at once: the move before a release)."""
 
 
 class Task(abc.ABC):

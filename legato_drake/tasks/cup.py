@@ -185,7 +185,7 @@ class CupTask(Task):
             Waypoint(RigidTransform(R_place, p_front), grasp=True, speed=speed),
             Waypoint(RigidTransform(R_place, p_place + [0.0, 0.0, 0.005]), grasp=True,
                      speed=0.06),
-            Waypoint(RigidTransform(R_place, p_place), grasp=True, speed=0.05),
+            Waypoint(RigidTransform(R_place, p_place), grasp=True, speed=0.05, profile="stop"),
             Waypoint(RigidTransform(R_place, p_place), grasp=False, hold=0.8),
             Waypoint(RigidTransform(R_place, p_retreat), grasp=False, speed=0.1),
         ]

@@ -186,7 +186,7 @@ class LadleTask(Task):
             Waypoint(RigidTransform(R_grasp, p_lift), grasp=True, speed=0.05),
             Waypoint(RigidTransform(R_grasp, p_out), grasp=True, speed=0.08),
             Waypoint(RigidTransform(R_place, p_above), grasp=True, speed=speed),
-            Waypoint(RigidTransform(R_place, p_place), grasp=True, speed=0.05),
+            Waypoint(RigidTransform(R_place, p_place), grasp=True, speed=0.05, profile="stop"),
             Waypoint(RigidTransform(R_place, p_place), grasp=False, hold=0.8),
             Waypoint(RigidTransform(R_place, p_retreat), grasp=False, speed=0.1),
         ]

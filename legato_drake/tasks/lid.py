@@ -135,7 +135,7 @@ class LidTask(Task):
             Waypoint(RigidTransform(R_grasp, p_grasp), grasp=True, hold=0.9),
             Waypoint(RigidTransform(R_grasp, p_lift), grasp=True, speed=0.08),
             Waypoint(RigidTransform(R_grasp, p_above), grasp=True, speed=speed),
-            Waypoint(RigidTransform(R_grasp, p_place), grasp=True, speed=0.05),
+            Waypoint(RigidTransform(R_grasp, p_place), grasp=True, speed=0.05, profile="stop"),
             Waypoint(RigidTransform(R_grasp, p_place), grasp=False, hold=0.8),
             Waypoint(RigidTransform(R_grasp, p_retreat), grasp=False, speed=0.1),
         ]
