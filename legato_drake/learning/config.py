@@ -67,6 +67,10 @@ class LearningConfig:
     grasp_weight: float = 0.2
     invariant_weight: float = 0.005
     """Weight of L_invar; 0 trains without it (the paper's "LEGATO (SE3)" / plain BC-RNN)."""
+    invariant_eps: float = 1e-6
+    """Motion resolution of L_invar (m and rad per step, ``invariants`` ``eps``): motion
+    below it counts as rest. The invariants' gradients scale like 1 / max(|action|, eps), so
+    a tiny eps lets the nearly still steps at the ends of moves dominate the loss."""
     invariant_tail: bool = True
     """Compare the window's tail too (``invariants.invariant_loss``): without it a single
     predicted action enters L_invar through th2 alone; false gives the appendix's loss."""
@@ -109,7 +113,7 @@ class LearningConfig:
                                           f"{self.encoder_channels}")
         if any(d < 1 for d in self.mlp_dims):
             raise bad("mlp_dims", f"must be positive integers, got {self.mlp_dims}")
-        for name in ("lr", "min_std"):
+        for name in ("lr", "min_std", "invariant_eps"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise bad(name, f"must be a positive number, got {getattr(self, name)}")
         for name in ("weight_decay", "grad_clip", "nll_weight", "grasp_weight",

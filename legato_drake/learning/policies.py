@@ -158,7 +158,8 @@ class RecurrentGMMPolicy(nn.Module):
             history = history_from_observations(obs["delta_positions"], obs["delta_eulers"])
             predicted = self.mode_action(out)[..., :6]
             invar = _masked_mean(invariant_loss(history, predicted, actions[..., :6],
-                                                reduction="none", tail=cfg.invariant_tail),
+                                                reduction="none", eps=cfg.invariant_eps,
+                                                tail=cfg.invariant_tail),
                                  mask)
         else:
             invar = torch.zeros((), dtype=nll.dtype, device=nll.device)
