@@ -37,11 +37,11 @@ Choices where the appendix is loose (each is tested in ``tests/test_invariants.p
   action: with the dataset's history of 2, the window has 3 deltas and one row, and only
   ``th2`` (2 of the 10 values, direction out of the plane of the last two steps) depends on
   the prediction; predicting 3 times the demonstrated action costs nothing. ``invariant_loss``
-  therefore also compares the window's *tail*, what the window does define past its last
+  can therefore also compare the window's *tail*, what the window does define past its last
   full row: ``m`` and ``th1`` of segment N-2 (the turn into the last segment) and ``m`` of the
-  last segment, per block (8 values). They are built from the same axes, so they keep every
-  property tested for phi (invariance, continuity, finite gradients); ``tail=False`` gives
-  the appendix's loss.
+  last segment, per block (8 values), with ``tail=True``. They are built from the same axes,
+  so they keep every property tested for phi (invariance, continuity, finite gradients). The
+  default stays the appendix's loss: in our state-based lid runs the tail did not help.
 * **Continuous axes.** ``x_k`` is never sign-flipped (a reversal is real motion). ``y_0`` has
   the sign of ``x_0 x x_1`` (so ``th1_0 >= 0``); every later ``y_k`` is flipped when it would
   point against ``y_{k-1}`` (``y_k . y_{k-1} < 0``), so the frame follows the curve through
@@ -471,17 +471,17 @@ def invariants_from_poses(positions: Array, rotations: Array, eps: float = DEFAU
 
 def invariant_loss(history: Array, predicted: Array, demonstrated: Array, *,
                    reduction: Literal["mean", "sum", "none"] = "mean",
-                   eps: float = DEFAULT_EPS, tail: bool = True) -> Array:
+                   eps: float = DEFAULT_EPS, tail: bool = False) -> Array:
     """L_invar: ``|phi(history + predicted) - phi(history + demonstrated)|^2``.
 
     ``history`` (..., T, 6) deltas, oldest first. ``predicted`` and ``demonstrated`` are one
     action (..., 6) (appendix A, needs T >= 2) or a chunk (..., P+1, 6) (appendix B); history
     and demonstration are converted to the prediction's kind, dtype and device. The
     squared distance is summed over rows and values per sample; ``reduction`` then takes the
-    mean or sum over the batch dims, or returns them ("none"). With ``tail`` (the default) the
-    window's tail (m and th1 past the last full row, see the module docstring) is compared
-    too; ``tail=False`` is the appendix's rows alone, in which a single predicted action
-    enters through th2 only and its magnitude not at all.
+    mean or sum over the batch dims, or returns them ("none"). The default is the appendix's
+    rows alone, in which a single predicted action enters through th2 only and its magnitude
+    not at all; with ``tail`` the window's tail (m and th1 past the last full row, see the
+    module docstring) is compared too.
     """
     predicted = _as_float(predicted)  # the others follow its kind, dtype and device
     history, demonstrated = _const(history, predicted), _const(demonstrated, predicted)

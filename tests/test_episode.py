@@ -40,7 +40,8 @@ def test_scripted_expert_succeeds(task, embodiment, seed):
     result = run_episode(scenario)
     assert result.success, result.reason
     assert result.tracking.rms_mm <= 5.0 and result.tracking.rms_deg <= 2.0
-    assert result.success_time is not None and result.success_time < 30.0
+    limit = {"lid": 25.0, "cup": 25.0, "ladle": 30.0}[task]  # medians: 11.5, 12.5, 16.1 s
+    assert result.success_time is not None and result.success_time < limit
 
 
 @pytest.mark.parametrize("task", ["lid", "cup", "ladle"])

@@ -440,13 +440,13 @@ def test_chunk_loss_zero_positive_and_differentiable() -> None:
                                per_sample.sum())
     loss.backward()
     assert torch.isfinite(predicted.grad).all() and predicted.grad.abs().sum() > 0
-    # appendix B: phi over history + chunk, compared as a whole (plus the tail by default)
+    # appendix B: phi over history + chunk, compared as a whole
     phi_p = inv.invariants_from_deltas(torch.cat([history, predicted.detach()], -2))
     phi_d = inv.invariants_from_deltas(torch.cat([history, demo], -2))
-    appendix = inv.invariant_loss(history, predicted.detach(), demo, reduction="none",
-                                  tail=False)
-    torch.testing.assert_close(appendix, ((phi_p - phi_d) ** 2).sum((-2, -1)))
-    assert (per_sample.detach() > appendix).all()
+    torch.testing.assert_close(per_sample.detach(), ((phi_p - phi_d) ** 2).sum((-2, -1)))
+    with_tail = inv.invariant_loss(history, predicted.detach(), demo, reduction="none",
+                                   tail=True)
+    assert (with_tail > per_sample.detach()).all()
     # one action is the chunk with P = 0
     torch.testing.assert_close(
         inv.invariant_loss(history, predicted.detach()[:, 0], demo[:, 0], reduction="none"),
@@ -465,13 +465,13 @@ def test_the_tail_makes_a_single_action_count() -> None:
     history = torch.randn(16, 2, 6, generator=gen, dtype=torch.float64) * 0.01
     demo = torch.randn(16, 6, generator=gen, dtype=torch.float64) * 0.01
     scaled = torch.cat([3.0 * demo[:, :3], demo[:, 3:]], -1)  # 3 times as far, same turn
-    assert inv.invariant_loss(history, scaled, demo, tail=False).item() < 1e-20
-    assert inv.invariant_loss(history, scaled, demo).item() > 1e-6
+    assert inv.invariant_loss(history, scaled, demo).item() < 1e-20
+    assert inv.invariant_loss(history, scaled, demo, tail=True).item() > 1e-6
     turned = torch.cat([demo[:, 1:3], demo[:, :1], demo[:, 3:]], -1)  # the same magnitude
-    assert inv.invariant_loss(history, turned, demo).item() > \
-        inv.invariant_loss(history, turned, demo, tail=False).item()
+    assert inv.invariant_loss(history, turned, demo, tail=True).item() > \
+        inv.invariant_loss(history, turned, demo).item()
     action = scaled.clone().requires_grad_()
-    inv.invariant_loss(history, action, demo).backward()
+    inv.invariant_loss(history, action, demo, tail=True).backward()
     assert (action.grad[:, :3].abs().sum(0) > 0).all()
 
 

@@ -65,15 +65,17 @@ class LearningConfig:
     """Optimizer steps in all (the paper: 6000 epochs x 200 steps)."""
     nll_weight: float = 1.0
     grasp_weight: float = 0.2
-    invariant_weight: float = 0.005
-    """Weight of L_invar; 0 trains without it (the paper's "LEGATO (SE3)" / plain BC-RNN)."""
+    invariant_weight: float = 0.001
+    """Weight of L_invar; 0 trains without it (the paper's "LEGATO (SE3)" / plain BC-RNN).
+    The paper's 0.005 multiplies the reference's loss, a mean over the 5 values of each block;
+    ours sums the 10 values of a row, 5 times as much, so 0.001 is the paper's weight."""
     invariant_eps: float = 1e-6
     """Motion resolution of L_invar (m and rad per step, ``invariants`` ``eps``): motion
     below it counts as rest. The invariants' gradients scale like 1 / max(|action|, eps), so
     a tiny eps lets the nearly still steps at the ends of moves dominate the loss."""
-    invariant_tail: bool = True
-    """Compare the window's tail too (``invariants.invariant_loss``): without it a single
-    predicted action enters L_invar through th2 alone; false gives the appendix's loss."""
+    invariant_tail: bool = False
+    """Compare the window's tail too (``invariants.invariant_loss``): without it (the
+    appendix's loss) a single predicted action enters L_invar through th2 alone."""
     valid_every: int = 200
     """Steps between validation losses (and ``best.pt`` updates)."""
     valid_batches: int = 8
