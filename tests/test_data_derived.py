@@ -43,13 +43,13 @@ def test_the_dataset_serves_it_as_the_controller_computes_it(tmp_path):
                                split="all")
     served = data[0]["obs"]["object_in_tcp"].numpy()
     step = 5  # one recorder sample, as the PolicyController reads it at rollout
-    sample = {key: episode.obs[key][step] for key in ("tcp_commanded", "object")}
+    sample = {key: episode.obs[key][step] for key in ("tcp_measured", "object")}
     np.testing.assert_allclose(served[step], read_observation(sample, "object_in_tcp"),
                                rtol=1e-6, atol=1e-6)
     assert served.shape == (12, 18) and served.dtype == np.float32
 
 
 def test_missing_sources_are_named():
-    assert "object_in_tcp" in available_observations(["tcp_commanded", "object"])
+    assert "object_in_tcp" in available_observations(["tcp_measured", "object"])
     assert "object_in_tcp" not in available_observations(["object"])
 

@@ -89,7 +89,7 @@ def test_state_policy_steps_resets_and_carries_its_history(tmp_path, abstract_pl
     for key in ("tcp_commanded", "object", "fingers"):
         np.testing.assert_allclose(obs[key].numpy()[0], sample[key].astype(np.float32))
     np.testing.assert_allclose(obs["object_in_tcp"].numpy()[0],
-                               object_in_tcp(sample["tcp_commanded"], sample["object"]),
+                               object_in_tcp(sample["tcp_measured"], sample["object"]),
                                rtol=1e-6, atol=1e-6)
     assert obs["object"].shape == (1, 21) and obs["object_in_tcp"].shape == (1, 27)
 

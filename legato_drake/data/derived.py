@@ -5,10 +5,13 @@ stored keys it is made of, whether they come from a demo in a file (training) or
 ``EpisodeRecorder`` sample (the ``PolicyController`` at rollout). Old datasets so gain new
 features without being collected again.
 
-* ``object_in_tcp``: each object body's pose in the commanded gripper TCP frame, 9 values per
-  body: its position, then the first two columns of its rotation matrix (continuous, unlike a
-  quaternion's sign). It is what the gripper would see of the scene (the state analogue of the
-  gripper camera) and, unlike world poses, does not change when the whole scene moves.
+* ``object_in_tcp``: each object body's pose in the gripper's TCP frame where the gripper
+  *is* (``tcp_measured``, where its camera is too), 9 values per body: its position, then the
+  first two columns of its rotation matrix (continuous, unlike a quaternion's sign). It is
+  what the gripper would see of the scene (the state analogue of the gripper camera) and,
+  unlike world poses, does not change when the whole scene moves. Taken from the commanded
+  pose instead, a robot's tracking lag shifts everything the policy sees: on the Google
+  Robot, whose base is slow, that put every lid 3-5 cm off the pot.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ import numpy as np
 
 from legato_drake.invariants import quaternion_to_matrix
 
-DERIVED_KEYS: dict[str, tuple[str, ...]] = {"object_in_tcp": ("tcp_commanded", "object")}
+DERIVED_KEYS: dict[str, tuple[str, ...]] = {"object_in_tcp": ("tcp_measured", "object")}
 """Each derived observation and the stored observations it is computed from."""
 VALUES_PER_BODY = {"object": 7, "object_in_tcp": 9}
 """Values per object body of the observations that hold one pose per body."""
@@ -42,7 +45,7 @@ def read_observation(source: Mapping, key: str) -> np.ndarray:
     """Observation ``key`` of ``source`` (a demo's ``obs`` group, or a recorder sample):
     stored, or derived from the stored ones."""
     if key == "object_in_tcp":
-        return object_in_tcp(np.asarray(source["tcp_commanded"], dtype=float),
+        return object_in_tcp(np.asarray(source["tcp_measured"], dtype=float),
                              np.asarray(source["object"], dtype=float))
     return np.asarray(source[key])
 
