@@ -15,7 +15,7 @@ demo: $(STAMP)  ## set up, then run the scripted lid demo on every embodiment
 	$(BIN)/legato-drake demo
 
 test: $(STAMP)  ## set up, then run the whole test suite (ruff, pytest, the notebooks)
-	$(BIN)/ruff check legato_drake tests benchmarks models
+	$(BIN)/ruff check legato_drake tests benchmarks models scripts
 	$(BIN)/python -m pytest -n 2 --durations=15
 
 bench: $(STAMP)  ## speed benchmarks (tables on stdout)

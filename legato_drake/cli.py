@@ -318,7 +318,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Runs --trials trials (scene seeds --seed0, --seed0 + 1, ...) per "
                     "embodiment and task with the policy in place of the demonstrator; writes "
                     "OUT/<method>.json and .csv after every trial (a rerun resumes), "
-                    "OUT/<method>.png (success with 95 %% Wilson intervals) and Meshcat "
+                    "OUT/<method>.png (success with 95 % Wilson intervals) and Meshcat "
                     "replays of the first --replays trials. --plot FILES combines results "
                     "files into OUT/success_rates.png.")
     evaluate.add_argument("--checkpoint", help="checkpoint, e.g. runs/legato/best.pt")

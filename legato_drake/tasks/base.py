@@ -14,6 +14,7 @@ import numpy as np
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import RigidBody
 from pydrake.systems.framework import Context
 
 from legato_drake import conventions
@@ -130,3 +131,27 @@ def add_table(plant: MultibodyPlant, parser: Parser, height: float) -> None:
     (table,) = parser.AddModels(url="package://legato_drake/table.sdf")
     plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("table_top", table),
                      RigidTransform([TABLE_CENTER_X, 0.0, height]))
+
+
+DROP = 0.001
+"""Free objects start this far above their support and settle while the robot homes."""
+STOVE_HALF_HEIGHT = 0.01
+
+
+def add_stove_and_pot(plant: MultibodyPlant, parser: Parser) -> tuple[RigidBody, RigidBody]:
+    """Adds the free stove and pot of the lid and ladle scenes; returns their bodies."""
+    (stove,) = parser.AddModels(url="package://legato_drake/stove.sdf")
+    (pot,) = parser.AddModels(url="package://legato_drake/pot.sdf")
+    return plant.GetBodyByName("stove", stove), plant.GetBodyByName("pot", pot)
+
+
+def place_stove_and_pot(plant: MultibodyPlant, context: Context, stove: RigidBody,
+                        pot: RigidBody, stove_xy: np.ndarray, table_height: float
+                        ) -> np.ndarray:
+    """Sets the stove on the table at ``stove_xy`` and the pot on the stove, each ``DROP``
+    above its support; returns the centre of the stove's top face."""
+    stove_z = table_height + STOVE_HALF_HEIGHT + DROP
+    plant.SetFreeBodyPose(context, stove, RigidTransform([*stove_xy, stove_z]))
+    top = np.array([*stove_xy, stove_z + STOVE_HALF_HEIGHT])
+    plant.SetFreeBodyPose(context, pot, RigidTransform(top + [0.0, 0.0, DROP]))
+    return top

@@ -38,19 +38,21 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
 
 from legato_drake.tasks.base import (
+    DROP,
     SuccessReport,
     Task,
     Waypoint,
+    add_stove_and_pot,
     add_table,
     body_speed,
     finger_opening,
+    place_stove_and_pot,
     release_check,
     uniform,
     verdict,
 )
 
 TABLE_HEIGHT = 0.625
-STOVE_HALF_HEIGHT = 0.01
 CASE_INTERIOR_HALF = (0.08, 0.13)
 """Half sizes of the case's interior footprint in its frame (x, y)."""
 LADLE_HALF_WIDTH = 0.02
@@ -81,12 +83,9 @@ class LadleTask(Task):
 
     def add_to_plant(self, plant: MultibodyPlant, parser: Parser) -> None:
         add_table(plant, parser, TABLE_HEIGHT)
-        (stove,) = parser.AddModels(url="package://legato_drake/stove.sdf")
-        (pot,) = parser.AddModels(url="package://legato_drake/pot.sdf")
+        self.stove, self.pot = add_stove_and_pot(plant, parser)
         (ladle,) = parser.AddModels(url="package://legato_drake/ladle.sdf")
         (case,) = parser.AddModels(url="package://legato_drake/case.sdf")
-        self.stove = plant.GetBodyByName("stove", stove)
-        self.pot = plant.GetBodyByName("pot", pot)
         self.ladle = plant.GetBodyByName("ladle", ladle)
         self.case = plant.GetBodyByName("case", case)
         self.ladle_handle = plant.GetFrameByName("ladle_handle", ladle)
@@ -94,19 +93,14 @@ class LadleTask(Task):
 
     def set_initial_state(self, plant: MultibodyPlant, context: Context,
                           rng: np.random.Generator) -> None:
-        drop = 0.001
         stove_xy = np.array([STOVE_X, uniform(rng, *STOVE_Y)])
-        stove_z = TABLE_HEIGHT + STOVE_HALF_HEIGHT + drop
-        plant.SetFreeBodyPose(context, self.stove, RigidTransform([*stove_xy, stove_z]))
-        plant.SetFreeBodyPose(context, self.pot, RigidTransform(
-            [*stove_xy, stove_z + STOVE_HALF_HEIGHT + drop]))
-        top = np.array([*stove_xy, stove_z + STOVE_HALF_HEIGHT])
+        top = place_stove_and_pot(plant, context, self.stove, self.pot, stove_xy, TABLE_HEIGHT)
         plant.SetFreeBodyPose(context, self.ladle, RigidTransform(
             RollPitchYaw(0.0, np.pi / 4, np.pi / 4),
             top + LADLE_OFFSET + [0.0, 0.0, LADLE_LIFT]))
         plant.SetFreeBodyPose(context, self.case, RigidTransform(
             RollPitchYaw(0.0, 0.0, uniform(rng, *CASE_YAW)),
-            [CASE_X, uniform(rng, *CASE_Y), TABLE_HEIGHT + drop]))
+            [CASE_X, uniform(rng, *CASE_Y), TABLE_HEIGHT + DROP]))
 
     def ladle_com(self, plant: MultibodyPlant, context: Context) -> np.ndarray:
         """The ladle's centre of mass in the world."""

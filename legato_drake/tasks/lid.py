@@ -18,12 +18,15 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
 
 from legato_drake.tasks.base import (
+    DROP,
     SuccessReport,
     Task,
     Waypoint,
+    add_stove_and_pot,
     add_table,
     body_speed,
     finger_opening,
+    place_stove_and_pot,
     release_check,
     tilt_angle,
     uniform,
@@ -31,7 +34,6 @@ from legato_drake.tasks.base import (
 )
 
 TABLE_HEIGHT = 0.70
-STOVE_HALF_HEIGHT = 0.01
 POT_HEIGHT = 0.10
 LID_HALF_THICKNESS = 0.005
 HANDLE_HALF_WIDTH = 0.01
@@ -51,26 +53,19 @@ class LidTask(Task):
 
     def add_to_plant(self, plant: MultibodyPlant, parser: Parser) -> None:
         add_table(plant, parser, TABLE_HEIGHT)
-        (stove,) = parser.AddModels(url="package://legato_drake/stove.sdf")
-        (pot,) = parser.AddModels(url="package://legato_drake/pot.sdf")
+        self.stove, self.pot = add_stove_and_pot(plant, parser)
         (lid,) = parser.AddModels(url="package://legato_drake/lid.sdf")
-        self.stove = plant.GetBodyByName("stove", stove)
-        self.pot = plant.GetBodyByName("pot", pot)
         self.lid = plant.GetBodyByName("lid", lid)
         self.lid_handle = plant.GetFrameByName("lid_handle", lid)
-        self.pot_rim = plant.GetFrameByName("pot_rim", pot)
+        self.pot_rim = plant.GetFrameByName("pot_rim", self.pot.model_instance())
 
     def set_initial_state(self, plant: MultibodyPlant, context: Context,
                           rng: np.random.Generator) -> None:
-        drop = 0.001
         stove_xy = np.array([uniform(rng, 0.67, 0.69), uniform(rng, -0.05, 0.05)])
-        stove_z = TABLE_HEIGHT + STOVE_HALF_HEIGHT + drop
-        plant.SetFreeBodyPose(context, self.stove, RigidTransform([*stove_xy, stove_z]))
-        pot_z = stove_z + STOVE_HALF_HEIGHT + drop
-        plant.SetFreeBodyPose(context, self.pot, RigidTransform([*stove_xy, pot_z]))
+        place_stove_and_pot(plant, context, self.stove, self.pot, stove_xy, TABLE_HEIGHT)
         lid_xy = stove_xy + [uniform(rng, -0.07, -0.04), uniform(rng, -0.28, -0.22)]
         plant.SetFreeBodyPose(context, self.lid, RigidTransform(
-            RollPitchYaw(0, 0, np.pi / 2), [*lid_xy, TABLE_HEIGHT + LID_HALF_THICKNESS + drop]))
+            RollPitchYaw(0, 0, np.pi / 2), [*lid_xy, TABLE_HEIGHT + LID_HALF_THICKNESS + DROP]))
 
     def evaluate(self, plant: MultibodyPlant, context: Context) -> SuccessReport:
         X_WL = plant.EvalBodyPoseInWorld(context, self.lid)
