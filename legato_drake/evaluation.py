@@ -214,16 +214,26 @@ def summarize(trials: Iterable[dict]) -> list[list]:
     return rows
 
 
+UNITS = ("m", "cm", "mm", "deg", "rad", "m/s", "s")
+"""Unit words that follow a number in a failure reason."""
+
+
 def reason_kind(reason: str) -> str:
-    """A failure reason without its numbers ("lid centre 23.9 cm from the pot axis (max 3 cm)"
-    -> "lid centre"): the predicate's condition that failed, for counting."""
-    words = []
-    for word in reason.split():
+    """A failure reason without its numbers, for counting: the predicate's condition that
+    failed ("lid -1.4 cm from resting on the rim (allowed -1.0 to +1.5 cm)" -> "lid … from
+    resting on the rim"; "lid still held: the fingers are open 0 mm" -> "lid still held")."""
+    head = reason.split(" (")[0].split(":")[0]
+    words: list[str] = []
+    after_number = False
+    for word in head.split():
         if any(c.isdigit() for c in word):
-            break
-        words.append(word.rstrip(":"))
-        if word.endswith(":"):
-            break
+            words.append("…")
+            after_number = True
+        elif after_number and word in UNITS:
+            after_number = False
+        else:
+            words.append(word)
+            after_number = False
     return " ".join(words) or reason
 
 

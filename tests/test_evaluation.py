@@ -69,7 +69,11 @@ def test_results_are_written_per_trial_and_an_interrupted_run_resumes(tmp_path, 
     assert failure_counts(doc["trials"])[0][3] == "fake x1"
     assert evaluation.reason_kind("lid still held: the fingers are open 1 mm") == \
         "lid still held"
-    assert evaluation.reason_kind("lid centre 23.9 cm from the pot axis") == "lid centre"
+    assert evaluation.reason_kind("lid centre 23.9 cm from the pot axis (max 3 cm)") == \
+        "lid centre … from the pot axis"
+    assert evaluation.reason_kind("lid -1.4 cm from resting on the rim (allowed -1.0 to +1.5 "
+                                  "cm)") == "lid … from resting on the rim"
+    assert evaluation.reason_kind("lid tilted 62 deg (max 15 deg)") == "lid tilted …"
     png = plot_success(combine([path]), tmp_path / "p.png")
     assert png.stat().st_size > 1000
 
