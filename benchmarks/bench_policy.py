@@ -20,6 +20,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from legato_drake import conventions
+from legato_drake.data.derived import observation_sizes
 from legato_drake.diagram import build_plant, object_bodies
 from legato_drake.learning.checkpoint import Checkpoint
 from legato_drake.learning.config import load_config
@@ -30,8 +31,7 @@ from legato_drake.systems.episode_recorder import EpisodeRecorder
 from legato_drake.systems.policy_controller import PolicyController
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
-DIMS = {"delta_positions": 6, "delta_eulers": 6, "tcp_commanded": 7, "tcp_measured": 7,
-        "object": 21, "object_in_tcp": 27, "fingers": 2, "actions": 7}
+DIMS = observation_sizes(3)  # the lid scene's stove, pot and lid
 
 
 def time_controller(config_name: str, steps: int) -> list[float]:

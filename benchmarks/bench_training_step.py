@@ -19,13 +19,13 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from legato_drake.data.derived import observation_sizes
 from legato_drake.learning.config import load_config
 from legato_drake.learning.policies import IMAGE_KEYS, RecurrentGMMPolicy
 from legato_drake.report import format_table
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
-DIMS = {"delta_positions": 6, "delta_eulers": 6, "tcp_commanded": 7, "tcp_measured": 7,
-        "object": 21, "object_in_tcp": 27, "fingers": 2, "actions": 7}
+DIMS = observation_sizes(3)  # the lid scene's stove, pot and lid
 BATCH, SEQUENCE = 16, 20
 
 

@@ -7,6 +7,7 @@ import pytest
 import torch
 import torch.nn.functional as F  # noqa: N812
 
+from legato_drake.data.derived import observation_sizes
 from legato_drake.data.torch_dataset import DemoSequenceDataset
 from legato_drake.learning.encoders import ImageEncoder, SpatialSoftmax, image_to_tensor
 from legato_drake.learning.normalization import OBS_MIN_STD, Normalizer, compute_stats
@@ -18,8 +19,7 @@ B, T = 3, 5
 
 def _stats(state: bool = True) -> dict:
     rng = np.random.default_rng(0)
-    dims = {"delta_positions": 6, "delta_eulers": 6, "tcp_commanded": 7, "object": 21,
-            "object_in_tcp": 27, "fingers": 2, "actions": 7}
+    dims = observation_sizes(3)
     return {k: compute_stats([rng.normal(0, 0.01, (50, d))]) for k, d in dims.items()}
 
 

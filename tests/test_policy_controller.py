@@ -8,7 +8,7 @@ import torch
 from pydrake.systems.analysis import Simulator
 
 from legato_drake import conventions
-from legato_drake.data.derived import object_in_tcp
+from legato_drake.data.derived import object_in_tcp, observation_sizes
 from legato_drake.diagram import object_bodies
 from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from legato_drake.learning.policies import RecurrentGMMPolicy
@@ -23,8 +23,7 @@ def _checkpoint(tmp_path, mode: str, **changes):
     torch.manual_seed(0)
     config = tiny_config(obs_mode=mode, **changes)
     rng = np.random.default_rng(0)
-    dims = {"delta_positions": 6, "delta_eulers": 6, "tcp_commanded": 7, "object": 21,
-            "object_in_tcp": 27, "fingers": 2, "actions": 7}
+    dims = observation_sizes(3)
     stats = {k: {"mean": rng.normal(0, 0.01, d).astype(np.float32),
                  "std": np.full(d, 0.05, np.float32)} for k, d in dims.items()}
     path = tmp_path / f"{mode}.pt"

@@ -10,20 +10,18 @@ features without being collected again.
   first two columns of its rotation matrix (continuous, unlike a quaternion's sign). It is
   what the gripper would see of the scene (the state analogue of the gripper camera) and,
   unlike world poses, does not change when the whole scene moves. Taken from the commanded
-  pose instead, a robot's tracking lag shifts everything the policy sees: on the Google
-  Robot, whose base is slow, that put every lid 3-5 cm off the pot.
+  pose instead, a robot's tracking lag would shift everything the policy sees.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
+from legato_drake.data.layout import ACTION_DIM, OBS_SHAPES
 from legato_drake.invariants import quaternion_to_matrix
 
-DERIVED_KEYS: dict[str, tuple[str, ...]] = {"object_in_tcp": ("tcp_measured", "object")}
-"""Each derived observation and the stored observations it is computed from."""
 VALUES_PER_BODY = {"object": 7, "object_in_tcp": 9}
 """Values per object body of the observations that hold one pose per body."""
 
@@ -41,16 +39,30 @@ def object_in_tcp(tcp: np.ndarray, objects: np.ndarray) -> np.ndarray:
     return values.reshape(*objects.shape[:-1], 9 * bodies)
 
 
+DERIVED: dict[str, tuple[tuple[str, ...], Callable[..., np.ndarray]]] = {
+    "object_in_tcp": (("tcp_measured", "object"), object_in_tcp),
+}
+"""Each derived observation: the stored observations it is computed from, and how."""
+
+
 def read_observation(source: Mapping, key: str) -> np.ndarray:
     """Observation ``key`` of ``source`` (a demo's ``obs`` group, or a recorder sample):
     stored, or derived from the stored ones."""
-    if key == "object_in_tcp":
-        return object_in_tcp(np.asarray(source["tcp_measured"], dtype=float),
-                             np.asarray(source["object"], dtype=float))
+    if key in DERIVED:
+        inputs, derive = DERIVED[key]
+        return derive(*(np.asarray(source[k], dtype=float) for k in inputs))
     return np.asarray(source[key])
 
 
 def available_observations(stored: set[str] | list[str]) -> set[str]:
     """The observations that can be read from a source that stores ``stored``."""
     stored = set(stored)
-    return stored | {k for k, sources in DERIVED_KEYS.items() if set(sources) <= stored}
+    return stored | {k for k, (inputs, _) in DERIVED.items() if set(inputs) <= stored}
+
+
+def observation_sizes(object_bodies: int) -> dict[str, int]:
+    """Values per sample of every low-dim observation, stored or derived, and of ``actions``,
+    in a scene of ``object_bodies`` bodies (what synthetic batches and statistics need)."""
+    sizes = {k: shape[0] for k, shape in OBS_SHAPES.items() if shape is not None}
+    sizes.update({k: n * object_bodies for k, n in VALUES_PER_BODY.items()})
+    return {**sizes, "actions": ACTION_DIM}
