@@ -9,13 +9,26 @@ from legato_drake.diagram import build_plant
 from legato_drake.scenario import Scenario
 
 
+def _lid_scene(embodiment: str):
+    """(plant, scene_graph, robot handles, task) of ``embodiment``'s lid scene."""
+    return build_plant(Scenario(embodiment=embodiment, task="lid"), DiagramBuilder())
+
+
 @pytest.fixture(scope="session")
 def panda_plant():
-    """(plant, scene_graph, robot handles, task) of the Panda lid scene."""
-    return build_plant(Scenario(embodiment="panda", task="lid"), DiagramBuilder())
+    return _lid_scene("panda")
 
 
 @pytest.fixture(scope="session")
 def abstract_plant():
-    """(plant, scene_graph, robot handles, task) of the Abstract lid scene."""
-    return build_plant(Scenario(embodiment="abstract", task="lid"), DiagramBuilder())
+    return _lid_scene("abstract")
+
+
+@pytest.fixture(scope="session")
+def google_plant():
+    return _lid_scene("google")
+
+
+@pytest.fixture(scope="session")
+def gr1_plant():
+    return _lid_scene("gr1")

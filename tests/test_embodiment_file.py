@@ -28,6 +28,10 @@ def test_loads_and_fills_default_gains(tmp_path):
     (dict(base_frame=None), ["missing required", "base_frame"]),
     (dict(tool="x"), ["unknown field", "tool"]),
     (dict(mount="{xyz: [0, 0]}"), ["mount.xyz"]),
+    (dict(ik="{joint_velocity_weights: {wrist_9: 2}}"), ["ik.joint_velocity_weights",
+                                                        "wrist_9"]),
+    (dict(ik="{joint_velocity_weights: {wrist_1: 0}}"), ["joint_velocity_weights",
+                                                        "positive"]),
 ])
 def test_bad_files_name_the_problem(tmp_path, overrides, words):
     path = write_ur_arm(tmp_path, **overrides)

@@ -99,3 +99,89 @@ def test_qp_is_used_and_agrees_with_bounds(panda_plant):
     small = ik.solve(q, np.zeros(ik.num_joints),
                      RigidTransform(X0.rotation(), X0.translation() + [1e-4, 0, 0]), np.zeros(6))
     assert small.status == "unconstrained"
+
+
+def _with_ik(plant_tuple, **settings):
+    """A WholeBodyIK of the same robot with some ``IkSettings`` fields replaced."""
+    import dataclasses
+
+    plant, _, robot, _ = plant_tuple
+    embodiment = dataclasses.replace(
+        robot.embodiment, ik=dataclasses.replace(robot.embodiment.ik, **settings))
+    return WholeBodyIK(plant, dataclasses.replace(robot, embodiment=embodiment))
+
+
+def _tcp_twist(ik, q, v):
+    """The TCP spatial velocity J(q) v that joint velocity ``v`` produces."""
+    from pydrake.multibody.tree import JacobianWrtVariable
+
+    ik._set_q(q)
+    plant, world = ik._plant, ik._plant.world_frame()
+    J = plant.CalcJacobianSpatialVelocity(ik._plant_context, JacobianWrtVariable.kV, ik._frame,
+                                          np.zeros(3), world, world)[:, ik._v_index]
+    return J @ v
+
+
+def test_strict_posture_never_costs_tracking_when_saturated(google_plant, capfd):
+    """With the slow base at its acceleration bound and ``posture_task_weight`` 0 (the
+    default), the posture term changes how the arm moves but not the TCP velocity: strict
+    priority. A positive weight lets it cost some. The solver prints nothing."""
+    ik = _ik(google_plant)
+    no_posture = _with_ik(google_plant, posture_gain=0.0)
+    q = ik._q_home.copy()
+    q[3:7] += [0.3, -0.2, 0.3, -0.4]  # arm away from home: the posture term pulls
+    X = ik.tcp_pose(q)
+    X_des = RigidTransform(X.rotation(), X.translation() + [0.01, -0.006, 0.004])
+    V_ff = np.zeros(6)
+    step = ik.solve(q, np.zeros(ik.num_joints), X_des, V_ff)
+    plain = no_posture.solve(q, np.zeros(ik.num_joints), X_des, V_ff)
+    assert step.status == plain.status == "qp"
+    lb, ub = ik.velocity_bounds(q, np.zeros(ik.num_joints))
+    assert np.all(step.v >= lb - 1e-12) and np.all(step.v <= ub + 1e-12)
+    assert np.any(np.isclose(np.abs(step.v[:3]), 1e-3))  # the base at its acceleration bound
+    assert np.max(np.abs(step.v - plain.v)) > 0.05  # the posture did change the joints
+    np.testing.assert_allclose(_tcp_twist(ik, q, step.v), _tcp_twist(ik, q, plain.v),
+                               atol=1e-7)
+    soft = _with_ik(google_plant, posture_task_weight=0.05).solve(
+        q, np.zeros(ik.num_joints), X_des, V_ff)
+    assert np.max(np.abs(_tcp_twist(ik, q, soft.v) - _tcp_twist(ik, q, plain.v))) > 1e-4
+    assert capfd.readouterr().out == ""
+
+
+def test_velocity_weights_move_motion_to_the_light_joints(panda_plant):
+    """A heavily weighted joint takes a smaller share of the same TCP motion."""
+    plain = _ik(panda_plant)
+    heavy = _with_ik(panda_plant, joint_velocity_weights={"panda_joint1": 100.0})
+    q = plain._q_home
+    X = plain.tcp_pose(q)
+    X_des = RigidTransform(X.rotation(), X.translation() + [0.0, 2e-4, 0.0])
+    a = plain.solve(q, np.zeros(plain.num_joints), X_des, np.zeros(6))
+    b = heavy.solve(q, np.zeros(plain.num_joints), X_des, np.zeros(6))
+    assert a.status == b.status == "unconstrained"
+    assert abs(b.v[0]) < 0.2 * abs(a.v[0])
+    np.testing.assert_allclose(_tcp_twist(plain, q, b.v), _tcp_twist(plain, q, a.v),
+                               atol=1e-7)
+
+
+def test_gr1_head_stays_level_while_the_waist_reaches(gr1_plant):
+    """The head-orientation task (stage 2) keeps the head at its home orientation with the
+    head joints while the gripper, which comes first, is tracked exactly."""
+    from pydrake.math import RollPitchYaw
+
+    ik, headless = _ik(gr1_plant), _with_ik(gr1_plant, orientation_tasks=())
+    R_home = ik._orientation_tasks[0][1]
+
+    def head_tilt(q):
+        ik._set_q(q)
+        R = ik._plant.GetFrameByName("head").CalcPoseInWorld(ik._plant_context).rotation()
+        return np.degrees(np.linalg.norm(RollPitchYaw(R_home.inverse() @ R).vector()))
+
+    X0 = ik.tcp_pose(ik._q_home)
+    X_des = RigidTransform(X0.rotation(), X0.translation() + [0.15, 0.10, -0.10])
+    q, _, _ = _run(ik, X_des, 2.0)
+    q_free, _, _ = _run(headless, X_des, 2.0)
+    for joints in (q, q_free):
+        dp, dr = pose_error(ik.tcp_pose(joints), X_des)
+        assert dp < 1e-3 and dr < 1e-2
+    assert head_tilt(q_free) > 5.0  # the waist moved and tilted the head ...
+    assert head_tilt(q) < 0.5       # ... which the head task corrects

@@ -42,7 +42,7 @@ class OrientationTask:
     gain: float = 20.0
     """Gain (1/s) on its orientation error."""
     weight: float = 0.05
-    """Weight relative to the gripper tracking task (soft priority)."""
+    """Weight relative to the posture term; the gripper task comes strictly first."""
 
 
 @dataclass(frozen=True)
@@ -56,7 +56,12 @@ class IkSettings:
     posture_joints: tuple[str, ...] = ()
     """Joints the posture term acts on; empty means all controlled joints."""
     posture_weight: float = 0.01
-    """Weight of the null-space posture term relative to the tracking term."""
+    """Weight of the posture term relative to the orientation tasks, in the IK's second
+    stage (the null space of the gripper task)."""
+    posture_task_weight: float = 0.0
+    """Weight of the posture term in the gripper task's own stage, relative to tracking:
+    where joints are at their bounds, how much tracking the posture may cost (0: none,
+    strict priority). While no bound is active it costs none, whatever this weight."""
     max_joint_speed: float = 2.5
     """Joint speed bound (rad/s or m/s), applied to every controlled joint."""
     max_joint_acceleration: float = 100.0
@@ -65,6 +70,11 @@ class IkSettings:
     """Per-joint speed bounds that override ``max_joint_speed``."""
     joint_acceleration_limits: dict[str, float] = field(default_factory=dict)
     """Per-joint acceleration bounds that override ``max_joint_acceleration``."""
+    joint_velocity_weights: dict[str, float] = field(default_factory=dict)
+    """Per-joint weights (default 1) of the joint-space metric that resolves redundancy: the
+    IK picks the velocity of smallest weighted norm that tracks the target, so a joint with
+    weight 10 moves only where the others cannot do the job as cheaply (e.g. a slow mobile
+    base behind a fast arm). Tracking keeps priority; only the split between joints changes."""
     joint_position_limits: dict[str, tuple[float, float]] = field(default_factory=dict)
     """Per-joint position ranges, tighter than the model's (e.g. to keep a mobile base off
     the table); the model's limits still apply."""
@@ -184,10 +194,21 @@ def add_embodiment(plant: MultibodyPlant, parser: Parser, emb: Embodiment) -> Ro
         _actuator_of(plant, joint).set_controller_gains(PdControllerGains(p=kp, d=kd))
         if joint.name() in emb.home:
             joint.set_default_positions([emb.home[joint.name()]])
-    posture = set(emb.ik.posture_joints) - names
-    if posture:
-        raise ConfigError(f"embodiment {emb.name!r}: ik.posture_joints names unknown joint(s) "
-                          f"{sorted(posture)}; actuated joints: {sorted(names)}")
+    ik = emb.ik
+    for field_name, table in (("posture_joints", ik.posture_joints),
+                              ("joint_speed_limits", ik.joint_speed_limits),
+                              ("joint_acceleration_limits", ik.joint_acceleration_limits),
+                              ("joint_position_limits", ik.joint_position_limits),
+                              ("joint_velocity_weights", ik.joint_velocity_weights)):
+        unknown = set(table) - names
+        if unknown:
+            raise ConfigError(f"embodiment {emb.name!r}: ik.{field_name} names unknown "
+                              f"joint(s) {sorted(unknown)}; actuated joints: {sorted(names)}")
+    bad = {j: w for j, w in ik.joint_velocity_weights.items()
+           if not (isinstance(w, int | float) and w > 0.0)}
+    if bad:
+        raise ConfigError(f"embodiment {emb.name!r}: ik.joint_velocity_weights must be "
+                          f"positive, got {bad}")
     unknown = set(emb.ik_joints) - names
     if unknown:
         raise ConfigError(f"embodiment {emb.name!r}: ik_joints names unknown joint(s) "

@@ -47,8 +47,10 @@ REQUIRED = ("name", "model", "base_frame", "mount_frame", "pd_gains")
 OPTIONAL = ("base_type", "base_pose", "base_range", "base_gains", "mount", "home", "ik",
             "description")
 IK_FIELDS = ("tracking_gain", "posture_gain", "posture_joints", "posture_weight",
+             "posture_task_weight",
              "max_joint_speed", "max_joint_acceleration", "joint_speed_limits",
-             "joint_acceleration_limits", "joint_position_limits", "orientation_tasks")
+             "joint_acceleration_limits", "joint_position_limits", "joint_velocity_weights",
+             "orientation_tasks")
 
 
 def load_embodiment_file(path: str | Path) -> Embodiment:

@@ -24,27 +24,37 @@ class IkStep:
 
     v: np.ndarray
     status: str
-    """``unconstrained`` (the optimum is inside the bounds), ``qp`` (OSQP solved the bounded
-    problem), ``hold`` (non-finite target: decelerate and stop) or ``failed`` (solver failure:
-    decelerate and stop)."""
+    """``unconstrained`` (both stages' optima are inside the bounds), ``qp`` (OSQP solved a
+    stage with bounds active), ``hold`` (non-finite target: decelerate and stop) or
+    ``failed`` (solver failure: decelerate and stop)."""
 
 
 class WholeBodyIK(LeafSystem):
     """Retargets the gripper TCP target onto the robot's actuated joints every ``period``.
 
-    Each step solves the QP (SPEC §5)::
+    Each step solves a prioritised velocity IK (SPEC §5) in two stages, both within the
+    joint velocity bounds ``lb <= v <= ub``::
 
-        min_v |J v - V*|^2 + w |P (v - v_posture)|^2 + eps |v|^2
-        s.t.  lb <= v <= ub
+        1. gripper:    v_1 = argmin |J v - V*|^2 + c_p |P (v - v_posture)|^2
+        2. the rest:   v   = argmin sum_i c_i |J_i v - w_i*|^2 + w |v - v_posture|^2
+                             s.t. J v = J v_1
 
     with ``V* = V_ff + K [rotvec(R_des R^T); p_des - p]`` (the commanded TCP spatial velocity:
     feed-forward plus the tracking gain times the pose error), ``P`` the null-space projector
-    of ``J``, ``v_posture = k (q_home - q)`` on the posture joints, and ``lb, ub`` the tightest
-    of the position limits (distance / dt), the speed limits, the braking distance
-    ``sqrt(2 a_max |distance|)``, and the acceleration limit around the previous velocity.
-    Secondary orientation tasks (``IkSettings.orientation_tasks``) add weighted terms
-    ``w |J_w v - k rotvec(R_home R^T)|^2`` that hold a frame (e.g. a head) at its home
-    orientation.
+    of ``J``, the secondary orientation tasks ``J_i, w_i* = k_i rotvec(R_home R^T)``
+    (``IkSettings.orientation_tasks``, weights ``c_i``, e.g. a head held level),
+    ``v_posture = k (q_home - q)`` on the posture joints (zero on the others), and ``lb, ub``
+    the tightest of the position limits (distance / dt), the speed limits, the braking
+    distance ``sqrt(2 a_max |distance|)``, and the acceleration limit around the previous
+    velocity. Stage 2 only moves in the null space of ``J``: the orientation tasks never
+    cost gripper tracking. The posture cannot either while no bound is active (``P``); where
+    the robot is saturated, ``c_p`` (``IkSettings.posture_task_weight``) sets how much
+    tracking it may cost: none by default (strict priority), a little on Spot, where it keeps
+    the arm out of a twisted branch it would otherwise follow into a joint limit. Each stage
+    is a linear solve where its optimum is inside the bounds and an OSQP QP where not.
+    Redundancy is resolved in the metric ``W`` (``IkSettings.joint_velocity_weights``,
+    diagonal, 1 by default: ``|v|^2`` above is ``v^T W v``), so heavily weighted joints (a
+    slow mobile base) move only where the others cannot do the job.
     The commanded joint positions are integrated (``q += v dt``) and clamped to the limits, so
     they never leave them. A NaN or infinite target, or a solver failure, makes the robot
     decelerate within its acceleration limit and hold.
@@ -83,6 +93,9 @@ class WholeBodyIK(LeafSystem):
         self._a_max = np.array([settings.joint_acceleration_limits.get(
             j.name(), settings.max_joint_acceleration) for j in joints])
         self._q_home = robot.home_positions
+        weights = np.array([settings.joint_velocity_weights.get(j.name(), 1.0) for j in joints])
+        self._scale = 1.0 / np.sqrt(weights)
+        """``v = scale * u``: the QP is solved for ``u``, where the metric W is the identity."""
         names = set(settings.posture_joints) or {j.name() for j in joints}
         self._posture_mask = np.array([j.name() in names for j in joints], dtype=float)
 
@@ -98,13 +111,24 @@ class WholeBodyIK(LeafSystem):
         """Set to a list to profile: the wall time of every solve is appended (benchmarks
         only; it is not part of the context and changes nothing the system computes)."""
 
+        # Stage 1: the gripper task within the bounds. Stage 2: the rest, the gripper held.
         self._prog = MathematicalProgram()
         v = self._prog.NewContinuousVariables(n, "v")
         self._cost = self._prog.AddQuadraticCost(np.eye(n), np.zeros(n), v, is_convex=True)
         self._bounds = self._prog.AddBoundingBoxConstraint(-np.ones(n), np.ones(n), v)
+        self._posture_prog = MathematicalProgram()
+        v = self._posture_prog.NewContinuousVariables(n, "v")
+        self._posture_cost = self._posture_prog.AddQuadraticCost(np.eye(n), np.zeros(n), v,
+                                                                 is_convex=True)
+        self._task_hold = self._posture_prog.AddLinearEqualityConstraint(
+            np.zeros((6, n)), np.zeros(6), v)
+        self._posture_bounds = self._posture_prog.AddBoundingBoxConstraint(
+            -np.ones(n), np.ones(n), v)
         self._solver = OsqpSolver()
+        # No polishing: where it finds no active set OSQP prints "Polishing not needed" on
+        # stdout whatever the verbosity; the tolerances below are tight enough without it.
         self._options = SolverOptions()
-        for key, value in (("verbose", 0), ("polishing", 1), ("eps_abs", 1e-7),
+        for key, value in (("verbose", 0), ("polishing", 0), ("eps_abs", 1e-7),
                            ("eps_rel", 1e-7), ("max_iter", 4000)):
             self._options.SetOption(OsqpSolver.id(), key, value)
 
@@ -161,39 +185,58 @@ class WholeBodyIK(LeafSystem):
             return IkStep(np.clip(np.zeros(self._n), lb, ub), "hold")
         self._set_q(q)
         X = self._frame.CalcPoseInWorld(self._plant_context)
+        # Everything below is written in u = v / scale, where the metric W is the identity.
+        world = self._plant.world_frame()
         J = self._plant.CalcJacobianSpatialVelocity(
-            self._plant_context, JacobianWrtVariable.kV, self._frame, np.zeros(3),
-            self._plant.world_frame(), self._plant.world_frame())[:, self._v_index]
+            self._plant_context, JacobianWrtVariable.kV, self._frame, np.zeros(3), world,
+            world)[:, self._v_index] * self._scale
         k = self._settings.tracking_gain
         error = np.concatenate([rotation_log(X_des.rotation() @ X.rotation().inverse()),
                                 X_des.translation() - X.translation()])
         V = V_ff + k * error
+        eps = 1e-6 * np.eye(self._n)
+        lb_u, ub_u = lb / self._scale, ub / self._scale
 
-        # Null-space projector of J (damped pseudo-inverse keeps it sane near singularities).
-        JJt = J @ J.T + 1e-6 * np.eye(6)
-        P = np.eye(self._n) - J.T @ np.linalg.solve(JJt, J)
-        v_posture = self._settings.posture_gain * self._posture_mask * (self._q_home - q)
+        u_posture = (self._settings.posture_gain * self._posture_mask * (self._q_home - q)
+                     / self._scale)
+
+        # Stage 1: the gripper task within the bounds, with the posture term (projected on the
+        # null space of J, so it only costs tracking where bounds are active) at weight c_p.
+        c_p = self._settings.posture_task_weight
+        P = np.eye(self._n) - J.T @ np.linalg.solve(J @ J.T + 1e-6 * np.eye(6), J)
+        H1 = J.T @ J + c_p * P.T @ P + eps
+        g1 = J.T @ V + c_p * P.T @ P @ u_posture
+        u_task = np.linalg.solve(H1, g1)
+        saturated = bool(np.any(u_task < lb_u) or np.any(u_task > ub_u))
+        if saturated:
+            self._cost.evaluator().UpdateCoefficients(2.0 * H1, -2.0 * g1)
+            self._bounds.evaluator().set_bounds(lb_u, ub_u)
+            result = self._solver.Solve(self._prog, None, self._options)
+            if not result.is_success():
+                return IkStep(np.clip(np.zeros(self._n), lb, ub), "failed")
+            u_task = np.clip(result.GetSolution(), lb_u, ub_u)
+
+        # Stage 2: secondary tasks and posture, in what leaves J u = J u_task unchanged.
         w = self._settings.posture_weight
-        H = J.T @ J + w * P.T @ P + 1e-6 * np.eye(self._n)
-        g = J.T @ V + w * P.T @ P @ v_posture
+        H, g = w * np.eye(self._n) + eps, w * u_posture
         for frame, R_home, gain, weight in self._orientation_tasks:
             J_w = self._plant.CalcJacobianSpatialVelocity(
-                self._plant_context, JacobianWrtVariable.kV, frame, np.zeros(3),
-                self._plant.world_frame(), self._plant.world_frame())[:3, self._v_index]
+                self._plant_context, JacobianWrtVariable.kV, frame, np.zeros(3), world,
+                world)[:3, self._v_index] * self._scale
             R = frame.CalcPoseInWorld(self._plant_context).rotation()
-            w_des = gain * rotation_log(R_home @ R.inverse())
             H += weight * J_w.T @ J_w
-            g += weight * J_w.T @ w_des
-
-        v = np.linalg.solve(H, g)
-        if np.all(v >= lb) and np.all(v <= ub):
-            return IkStep(v, "unconstrained")
-        self._cost.evaluator().UpdateCoefficients(2.0 * H, -2.0 * g)
-        self._bounds.evaluator().set_bounds(lb, ub)
-        result = self._solver.Solve(self._prog, None, self._options)
-        if not result.is_success():
-            return IkStep(np.clip(np.zeros(self._n), lb, ub), "failed")
-        return IkStep(np.clip(result.GetSolution(), lb, ub), "qp")
+            g += weight * J_w.T @ (gain * rotation_log(R_home @ R.inverse()))
+        _, sigma, Vt = np.linalg.svd(J)
+        N = Vt[int(np.sum(sigma > 1e-9 * max(sigma[0], 1e-12))):].T  # null-space basis of J
+        u = u_task + N @ np.linalg.solve(N.T @ H @ N, N.T @ (g - H @ u_task))
+        if np.all(u >= lb_u) and np.all(u <= ub_u):
+            return IkStep(self._scale * u, "qp" if saturated else "unconstrained")
+        self._posture_cost.evaluator().UpdateCoefficients(2.0 * H, -2.0 * g)
+        self._task_hold.evaluator().UpdateCoefficients(J, J @ u_task)
+        self._posture_bounds.evaluator().set_bounds(lb_u, ub_u)
+        result = self._solver.Solve(self._posture_prog, u_task, self._options)
+        u = np.clip(result.GetSolution(), lb_u, ub_u) if result.is_success() else u_task
+        return IkStep(self._scale * u, "qp")
 
     def _set_q(self, q: np.ndarray) -> None:
         self._q_full[self._q_index] = q
