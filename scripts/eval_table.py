@@ -13,8 +13,7 @@ import argparse
 from pathlib import Path
 
 from legato_drake.embodiments import EMBODIMENTS
-from legato_drake.evaluation import combine
-from legato_drake.stats import wilson_interval
+from legato_drake.evaluation import combine, summarize
 
 PAPER = {  # success % (SPEC §9) per task: method -> embodiment -> rate
     "lid": {"LEGATO (paper)": dict(abstract=76, panda=88, spot=80, google=96, gr1=90),
@@ -28,18 +27,14 @@ PAPER = {  # success % (SPEC §9) per task: method -> embodiment -> rate
 
 def table(trials: list[dict], task: str) -> list[str]:
     """Markdown lines: methods x embodiments for ``task``."""
-    trials = [t for t in trials if t["task"] == task]
-    embodiments = [e for e in EMBODIMENTS if any(t["embodiment"] == e for t in trials)]
+    cells = {(m, e): f"{k_of_n} ({interval} %)"
+             for m, e, t, k_of_n, _, interval, *_ in summarize(trials) if t == task}
+    embodiments = [e for e in EMBODIMENTS if any(key[1] == e for key in cells)]
     lines = ["| method | " + " | ".join(embodiments) + " |",
              "| --- " * (len(embodiments) + 1) + "|"]
-    for method in dict.fromkeys(t["method"] for t in trials):
-        cells = []
-        for embodiment in embodiments:
-            group = [t for t in trials if t["method"] == method and t["embodiment"] == embodiment]
-            wins, n = sum(bool(t["success"]) for t in group), len(group)
-            low, high = wilson_interval(wins, n)
-            cells.append(f"{wins}/{n} ({100 * low:.0f}-{100 * high:.0f} %)" if n else "-")
-        lines.append(f"| {method} | " + " | ".join(cells) + " |")
+    for method in dict.fromkeys(m for m, _ in cells):
+        lines.append(f"| {method} | "
+                     + " | ".join(cells.get((method, e), "-") for e in embodiments) + " |")
     for method, rates in PAPER.get(task, {}).items():
         lines.append(f"| {method} | " + " | ".join(f"{rates[e]} %" for e in embodiments) + " |")
     return lines

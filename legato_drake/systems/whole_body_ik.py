@@ -203,9 +203,11 @@ class WholeBodyIK(LeafSystem):
         # Stage 1: the gripper task within the bounds, with the posture term (projected on the
         # null space of J, so it only costs tracking where bounds are active) at weight c_p.
         c_p = self._settings.posture_task_weight
-        P = np.eye(self._n) - J.T @ np.linalg.solve(J @ J.T + 1e-6 * np.eye(6), J)
-        H1 = J.T @ J + c_p * P.T @ P + eps
-        g1 = J.T @ V + c_p * P.T @ P @ u_posture
+        H1, g1 = J.T @ J + eps, J.T @ V
+        if c_p > 0.0:
+            P = np.eye(self._n) - J.T @ np.linalg.solve(J @ J.T + 1e-6 * np.eye(6), J)
+            H1 += c_p * P.T @ P
+            g1 += c_p * P.T @ P @ u_posture
         u_task = np.linalg.solve(H1, g1)
         saturated = bool(np.any(u_task < lb_u) or np.any(u_task > ub_u))
         if saturated:
