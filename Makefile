@@ -3,9 +3,9 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint bench setup clean
+.PHONY: demo test lint bench setup lock clean
 
-$(STAMP): pyproject.toml scripts/setup.sh
+$(STAMP): pyproject.toml scripts/setup.sh requirements/constraints.txt
 	bash scripts/setup.sh $(VENV)
 	touch $(STAMP)
 
@@ -24,6 +24,12 @@ bench: $(STAMP)  ## speed benchmarks (tables on stdout)
 	$(BIN)/python benchmarks/bench_invariants.py
 	$(BIN)/python benchmarks/bench_training_step.py
 	$(BIN)/python benchmarks/bench_policy.py
+
+lock: $(STAMP)  ## refresh requirements/constraints.txt from the tested venv (deliberately)
+	{ sed -n '/^#/p' requirements/constraints.txt; \
+	  $(BIN)/python -m pip freeze --exclude-editable | grep -v '^#' | \
+	  sed -e 's/^torch==\([^+]*\)+.*/torch==\1/'; } > requirements/constraints.txt.new
+	mv requirements/constraints.txt.new requirements/constraints.txt
 
 clean:
 	rm -rf $(VENV) replays .pytest_cache

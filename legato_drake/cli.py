@@ -3,13 +3,60 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
+import math
+import shutil
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import NoReturn
 
-from legato_drake.errors import LegatoError
+from legato_drake import __version__
+from legato_drake.errors import ConfigError, LegatoError, one_line
+from legato_drake.files import check_output_dir, check_output_file
 
 log = logging.getLogger("legato_drake")
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+"""Exit codes: everything succeeded; some episode or trial failed; bad input (nothing was
+done); interrupted (Ctrl-C)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (and exit 2), like every other error."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {one_line(message)} "
+                                  f"(see {self.prog} --help)\n")
+
+
+def _int_at_least(low: int) -> Callable[[str], int]:
+    """An argparse type: an integer >= ``low``."""
+    def parse(value: str) -> int:
+        try:
+            number = int(value)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected an integer >= {low}, got {value!r}") from None
+        if number < low:
+            raise argparse.ArgumentTypeError(f"must be at least {low}, got {number}")
+        return number
+
+    parse.__name__ = f"integer >= {low}"
+    return parse
+
+
+def _seconds(value: str) -> float:
+    """An argparse type: a positive, finite number of seconds."""
+    try:
+        number = float(value)
+    except ValueError:
+        number = math.nan
+    if not (math.isfinite(number) and number > 0):
+        raise argparse.ArgumentTypeError(
+            f"expected a positive number of seconds, got {value!r}")
+    return number
 
 
 def _names(value: str, registry: dict, kind: str) -> list[str]:
@@ -31,10 +78,14 @@ def _seeds(value: str) -> list[int]:
             if high < low:
                 raise ValueError
             return list(range(low, high + 1))
-        return [int(v) for v in value.split(",")]
+        seeds = [int(v) for v in value.split(",")]
+        if min(seeds) < 0:
+            raise ValueError
+        return seeds
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"--seeds {value!r}: expected N, A-B (A <= B) or a comma-separated list") from None
+            f"--seeds {value!r}: expected N, A-B (0 <= A <= B) or a comma-separated list of "
+            "non-negative seeds") from None
 
 
 def _demo_episode(job: tuple) -> dict:
@@ -46,8 +97,38 @@ def _demo_episode(job: tuple) -> dict:
     return {**result.to_dict(), "html": str(html) if html else None}
 
 
+def _demo_checkpoint(args: argparse.Namespace, base, controller: str, task: str) -> str:
+    """The checkpoint ``demo`` runs for ``task``: ``--checkpoint``, else the scenario's, else
+    the shipped policy of the task ("" for the other controllers)."""
+    from legato_drake.models import shipped_checkpoint
+
+    if controller != "policy":
+        return base.checkpoint
+    if args.checkpoint:
+        path = Path(args.checkpoint)
+        if not path.is_file():
+            raise ConfigError(f"--checkpoint {path}: file not found")
+        return str(path)
+    if base.checkpoint:
+        return base.checkpoint
+    shipped = shipped_checkpoint(task)
+    if not shipped.is_file():
+        raise ConfigError(f"no shipped policy for task {task!r} ({shipped} does not exist): "
+                          "use --controller scripted, or --checkpoint FILE")
+    return str(shipped)
+
+
+def _controller_label(result: dict, checkpoints: dict[str, str]) -> str:
+    """What drove an episode, for the demo table: ``scripted``, ``replay`` or the policy's
+    checkpoint file name."""
+    if result["controller"] != "policy":
+        return result["controller"]
+    return f"policy:{Path(checkpoints[result['task']]).name}"
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
-    """Runs the scripted demonstrator per embodiment, task and seed; writes replays; prints a
+    """Runs a controller (by default the shipped LEGATO policy of the task; ``--controller
+    scripted``: the scripted expert) per embodiment, task and seed; writes replays; prints a
     table (one row per episode, or per embodiment and task with 95 % Wilson intervals)."""
     from legato_drake.embodiments import EMBODIMENTS
     from legato_drake.files import atomic_write_text
@@ -57,22 +138,35 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from legato_drake.stats import wilson_interval
     from legato_drake.tasks import TASKS
 
+    if args.embodiment_file and args.embodiment is not None:
+        raise ConfigError("--embodiment-file replaces --embodiment: give only one of them")
+    # Flags given explicitly override the scenario file's fields; absent ones leave them.
     base = load_scenario(args.scenario) if args.scenario else Scenario()
     if args.embodiment_file:
         base = base.replace(embodiment_file=str(Path(args.embodiment_file).resolve()))
         embodiments = [base.embodiment]
-    else:
+    elif args.embodiment is not None:
         embodiments = _names(args.embodiment, EMBODIMENTS, "embodiment")
-    tasks = _names(args.task, TASKS, "task")
+        base = dataclasses.replace(base, embodiment_file="")
+    else:
+        embodiments = [base.embodiment] if args.scenario else list(EMBODIMENTS)
+    tasks = _names(args.task, TASKS, "task") if args.task is not None else [base.task]
     seeds = args.seeds if args.seeds is not None else [base.seed]
+    controller = args.controller or (base.controller if args.scenario else "policy")
+    checkpoints = {task: _demo_checkpoint(args, base, controller, task) for task in tasks}
     if args.no_camera:
         base.camera.enabled = False
     out = Path(args.out)
+    if not args.no_replay:
+        check_output_dir(out, "--out")
+    if args.json:
+        check_output_file(Path(args.json), "--json")
     jobs = []
     for embodiment in embodiments:
         for task in tasks:
             for seed in seeds:
-                scenario = base.replace(embodiment=embodiment, task=task, seed=seed)
+                scenario = base.replace(embodiment=embodiment, task=task, seed=seed,
+                                        controller=controller, checkpoint=checkpoints[task])
                 html = None if args.no_replay else out / f"{embodiment}-{task}-seed{seed}.html"
                 jobs.append((scenario, html))
     results = parallel_map(_demo_episode, jobs, args.workers, desc="demo")
@@ -81,11 +175,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
             log.info("wrote %s", r["html"])
 
     if len(seeds) == 1:
-        rows = [[r["embodiment"], r["task"], r["seed"], r["success"], r["reason"] or "-",
-                 r["tracking"]["rms_mm"], r["tracking"]["rms_deg"], r["sim_time"],
-                 r["wall_time"], r["real_time_factor"]] for r in results]
-        print(format_table(["embodiment", "task", "seed", "success", "why not", "rms mm",
-                            "rms deg", "sim s", "wall s", "x real time"], rows))
+        rows = [[r["embodiment"], r["task"], _controller_label(r, checkpoints), r["seed"],
+                 r["success"], r["reason"] or "-", r["tracking"]["rms_mm"],
+                 r["tracking"]["rms_deg"], r["sim_time"], r["wall_time"],
+                 r["real_time_factor"]] for r in results]
+        print(format_table(["embodiment", "task", "controller", "seed", "success", "why not",
+                            "rms mm", "rms deg", "sim s", "wall s", "x real time"], rows))
     else:
         rows = []
         for embodiment in embodiments:
@@ -94,14 +189,16 @@ def cmd_demo(args: argparse.Namespace) -> int:
                          if r["embodiment"] == embodiment and r["task"] == task]
                 k = sum(r["success"] for r in group)
                 low, high = wilson_interval(k, len(group))
-                rows.append([embodiment, task, f"{k}/{len(group)}",
+                rows.append([embodiment, task, _controller_label(group[0], checkpoints),
+                             f"{k}/{len(group)}",
                              f"{100 * low:.0f}-{100 * high:.0f}",
                              max(r["tracking"]["rms_mm"] for r in group),
                              max(r["tracking"]["rms_deg"] for r in group),
                              max(r["tracking"]["max_mm"] for r in group),
                              sum(r["sim_time"] for r in group) /
                              sum(r["wall_time"] for r in group)])
-        print(format_table(["embodiment", "task", "success", "95% CI %", "worst rms mm",
+        print(format_table(["embodiment", "task", "controller", "success", "95% CI %",
+                            "worst rms mm",
                             "worst rms deg", "worst max mm", "x real time"], rows))
         failures = [f"{r['embodiment']}/{r['task']}/seed {r['seed']}: {r['reason']}"
                     for r in results if not r["success"]]
@@ -121,24 +218,45 @@ def cmd_retarget_benchmark(args: argparse.Namespace) -> int:
     from legato_drake.retarget import SUMMARY_HEADERS, run_benchmark, summarize, write_results
     from legato_drake.tasks import TASKS
 
-    rows = run_benchmark(_names(args.embodiments, EMBODIMENTS, "embodiment"),
-                         _names(args.tasks, TASKS, "task"), args.seeds, args.workers)
+    embodiments = _names(args.embodiments, EMBODIMENTS, "embodiment")
+    tasks = _names(args.tasks, TASKS, "task")
+    check_output_dir(Path(args.out), "--out")
+    rows = run_benchmark(embodiments, tasks, args.seeds, args.workers)
     print(format_table(SUMMARY_HEADERS, summarize(rows)))
     for path in write_results(rows, Path(args.out)):
         log.info("wrote %s", path)
-    return 0
+    return EXIT_OK if all(r["success"] for r in rows) else EXIT_FAILED
 
 
 def cmd_collect(args: argparse.Namespace) -> int:
     """Collects a demonstration dataset (``legato_drake.data.collect``) and prints a summary."""
-    from legato_drake.data.collect import collect
+    from legato_drake.data.collect import collect, parts_dir
+    from legato_drake.embodiments import EMBODIMENTS
     from legato_drake.report import format_table
+    from legato_drake.tasks import TASKS
+
+    _names(args.task, TASKS, "task")
+    _names(args.embodiment, EMBODIMENTS, "embodiment")
+    out = check_output_file(Path(args.out), "--out")
+    check_output_dir(parts_dir(out), "--out")
+    if args.max_attempts is not None and args.max_attempts < args.episodes:
+        raise ConfigError(f"--max-attempts {args.max_attempts} is below --episodes "
+                          f"{args.episodes}")
+    if args.source is not None and not Path(args.source).exists():
+        raise ConfigError(f"--source {args.source}: no such file or folder")
+    if args.overwrite:
+        _set_aside(args, [out, parts_dir(out), out.with_name(out.name + ".manifest.json")],
+                   out.with_name(f".{out.name}.overwritten"))
+    from legato_drake.scenario import ExpertNoiseConfig
 
     report = collect(task=args.task, embodiment=args.embodiment, episodes=args.episodes,
                      out=Path(args.out), workers=args.workers,
                      keep_failures=args.keep_failures, seed0=args.seed0, source=args.source,
                      camera=not args.no_camera, duration=args.duration,
-                     max_attempts=args.max_attempts)
+                     max_attempts=args.max_attempts,
+                     expert_noise=ExpertNoiseConfig(args.noise_mm / 1000.0, args.noise_deg,
+                                                    args.noise_correlation),
+                     stop_on_success=args.stop_on_success)
     for outcome in report.failed:
         log.info("failed: %s (seed %d): %s", outcome["key"], outcome["seed"],
                  outcome["reason"])
@@ -153,11 +271,12 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     """Prints a dataset's summary and validation; plots one episode."""
     from legato_drake.data.inspect import format_summary, plot_episode, summarize
 
+    out = Path(args.out) if args.out else Path(str(args.file) + ".inspect")
+    check_output_dir(out, "--out")
     summary = summarize(Path(args.file))
     print(format_summary(summary))
     if summary.issues:
         return 1
-    out = Path(args.out) if args.out else Path(str(args.file) + ".inspect")
     for path in plot_episode(Path(args.file), args.episode, out):
         print(f"wrote {path}")
     return 0
@@ -165,15 +284,67 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
 def cmd_train(args: argparse.Namespace) -> int:
     """Trains a policy (``legato_drake.learning.train``)."""
+    import torch
+
     from legato_drake.learning.config import load_config
     from legato_drake.learning.train import train
 
+    if args.resume and args.overwrite:
+        raise ConfigError("--resume continues the run in --out, --overwrite replaces it: "
+                          "give only one of them")
+    try:
+        torch.device(args.device)
+    except RuntimeError:
+        raise ConfigError(f"--device {args.device!r}: expected cpu, cuda or cuda:N") from None
     config = load_config(args.config, args.set)
-    ckpt = train(config, Path(args.data), Path(args.out), steps=args.steps, device=args.device,
+    if not Path(args.data).is_file():
+        raise ConfigError(f"--data {args.data}: dataset file not found")
+    out = check_output_dir(Path(args.out), "--out")
+    if args.overwrite and out.is_dir():
+        _set_aside(args, [*(out / name for name in RUN_FILES), *out.glob("step_*.pt")],
+                   out / ".overwritten", new_files=(out, "step_*.pt"))
+    ckpt = train(config, Path(args.data), out, steps=args.steps, device=args.device,
                  resume=args.resume)
     log.info("step %d, best validation loss %.4f; wrote %s", ckpt.step, ckpt.best_valid,
              Path(args.out) / "best.pt")
     return 0
+
+
+def cmd_select(args: argparse.Namespace) -> int:
+    """Chooses a run's checkpoint by rollouts on validation seeds; prints the candidates."""
+    from legato_drake.embodiments import EMBODIMENTS
+    from legato_drake.report import format_table
+    from legato_drake.selection import select_checkpoint
+    from legato_drake.tasks import TASKS
+
+    _names(args.task, TASKS, "task")
+    _names(args.embodiment, EMBODIMENTS, "embodiment")
+    summary = select_checkpoint(args.run, args.task, args.embodiment, args.trials, args.seed0,
+                                args.workers)
+    seeds = summary["seeds"]
+    print(format_table(
+        ["candidate", "step", f"success (seeds {seeds[0]}-{seeds[-1]})", "selected"],
+        [[c["name"], c["step"], f"{c['successes']}/{c['trials']}",
+          "yes" if c["name"] == summary["selected"] else ""] for c in summary["candidates"]]))
+    log.info("wrote %s", Path(args.run) / "selected.pt")
+    return 0
+
+
+def _trial_seeds(args: argparse.Namespace) -> tuple[int, int]:
+    """evaluate's (seed0, trials) from ``--seeds A-B`` (demo's spelling) or ``--seed0`` and
+    ``--trials`` (defaults 10000 and 50)."""
+    from legato_drake.evaluation import EVAL_SEED0
+
+    if args.seeds is None:
+        return (EVAL_SEED0 if args.seed0 is None else args.seed0,
+                50 if args.trials is None else args.trials)
+    if args.seed0 is not None or args.trials is not None:
+        raise ConfigError("--seeds A-B replaces --seed0 and --trials: give one or the others")
+    seeds = args.seeds
+    if seeds != list(range(seeds[0], seeds[0] + len(seeds))):
+        raise ConfigError(f"--seeds: evaluation seeds must be consecutive (N or A-B), got "
+                          f"{seeds}")
+    return seeds[0], len(seeds)
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
@@ -192,15 +363,18 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from legato_drake.report import format_table
     from legato_drake.tasks import TASKS
 
-    out = Path(args.out)
+    out = check_output_dir(Path(args.out), "--out")
+    if args.plot and args.checkpoint:
+        raise ConfigError("--plot only combines results files: give --checkpoint or --plot")
     if args.plot:
         trials = combine(args.plot)
         png = plot_success(trials, out / "success_rates.png")
     elif args.checkpoint:
+        seed0, trials = _trial_seeds(args)
         doc = evaluate(args.checkpoint, _names(args.embodiments, EMBODIMENTS, "embodiment"),
-                       _names(args.tasks, TASKS, "task"), args.trials, out,
+                       _names(args.tasks, TASKS, "task"), trials, out,
                        workers=args.workers, replays=args.replays, method=args.method,
-                       seed0=args.seed0, duration=args.duration)
+                       seed0=seed0, duration=args.duration, overwrite=args.overwrite)
         trials = doc["trials"]
         png = plot_success(trials, out / f"{doc['method']}.png")
         log.info("wrote %s", results_path(out, doc["method"]))
@@ -210,35 +384,108 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     print(format_table(["method", "embodiment", "task", "failures by condition"],
                        failure_counts(trials)))
     log.info("wrote %s", png)
-    return 0
+    # A failed trial is a result; a trial that raised did not run as it should.
+    errors = [t for t in trials if str(t.get("reason", "")).startswith("error:")]
+    for t in errors:
+        log.warning("trial %s/%s seed %s: %s", t["embodiment"], t["task"], t["seed"],
+                    t["reason"])
+    return EXIT_FAILED if errors else EXIT_OK
+
+
+RUN_FILES = ("last.pt", "best.pt", "log.csv", "config.yaml", "tensorboard", "selected.pt",
+             "selection.json", "selection")
+"""What a training run writes into its folder (and ``step_<N>.pt`` snapshots):
+``train --overwrite`` replaces these, nothing else."""
+
+
+def _delete(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    elif path.exists() or path.is_symlink():
+        path.unlink()
+
+
+def _set_aside(args: argparse.Namespace, paths: list[Path], aside: Path,
+               new_files: tuple[Path, str] | None = None) -> None:
+    """For ``--overwrite``: moves the existing ``paths`` into the folder ``aside`` before the
+    work starts. ``main`` deletes them when the verb returns, and puts them back when it
+    fails or is interrupted (first removing what it wrote at those paths, and files matching
+    ``new_files``: a folder and a glob), so a failed ``--overwrite`` loses nothing."""
+    if aside.exists():
+        raise ConfigError(f"--overwrite: {aside} holds the files set aside by an earlier "
+                          "--overwrite that was cut short: move them back or delete it first")
+    existing = [p for p in dict.fromkeys(paths) if p.exists() or p.is_symlink()]
+    if not existing:
+        return
+    aside.mkdir(parents=True)
+    moved = []
+    for i, path in enumerate(existing):
+        target = aside / f"{i}-{path.name}"
+        path.rename(target)
+        moved.append((path, target))
+    args.set_aside = (moved, aside, paths, new_files)
+
+
+def _settle_set_aside(args: argparse.Namespace, succeeded: bool) -> None:
+    """Deletes what ``_set_aside`` moved (the verb succeeded) or puts it back (it failed)."""
+    moved, aside, paths, new_files = getattr(args, "set_aside", ((), None, (), None))
+    if aside is None:
+        return
+    if succeeded:
+        for path, _ in moved:
+            log.info("--overwrite: replaced %s", path)
+        shutil.rmtree(aside)
+        return
+    written = [*paths, *(new_files[0].glob(new_files[1]) if new_files else ())]
+    for path in written:
+        _delete(path)
+    for path, target in moved:
+        target.rename(path)
+    aside.rmdir()
+    log.info("--overwrite: the work did not finish; the old files are back in place")
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``legato-drake``."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="legato-drake",
-        description="LEGATO cross-embodiment imitation learning on Drake.")
+        description="LEGATO cross-embodiment imitation learning on Drake. Exit codes: 0 "
+                    "everything succeeded, 1 some episode or trial failed, 2 bad input "
+                    "(nothing was run), 130 interrupted.")
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     verbs = parser.add_subparsers(dest="verb", required=True)
 
     demo = verbs.add_parser(
-        "demo", help="run the scripted demonstrator, write HTML replays, print a table",
-        description="Runs the task's scripted demonstrator on each embodiment, writes "
+        "demo", help="run the shipped policy (or the scripted expert) on every robot, write "
+                     "HTML replays, print a table",
+        description="Runs the task's shipped LEGATO policy (--controller policy, default) or "
+                    "its scripted expert (--controller scripted) on each embodiment, writes "
                     "OUT/<embodiment>-<task>-seed<N>.html Meshcat replays and prints success, "
                     "gripper tracking error and speed. Exits 1 if any episode failed.")
-    demo.add_argument("--embodiment", default="all",
-                      help="embodiment name, comma-separated names, or 'all' (default)")
+    demo.add_argument("--embodiment", "--embodiments", dest="embodiment", default=None,
+                      help="embodiment name, comma-separated names, or 'all' (default: "
+                           "the --scenario file's, else all)")
     demo.add_argument("--embodiment-file", metavar="YAML",
                       help="a robot defined in a YAML file (see README, 'Bring your own "
                            "robot'); replaces --embodiment")
-    demo.add_argument("--task", default="lid", help="task name, names, or 'all' (default: lid)")
+    demo.add_argument("--task", "--tasks", dest="task", default=None,
+                      help="task name, names, or 'all' (default: the --scenario file's, "
+                           "else lid)")
     demo.add_argument("--seeds", "--seed", type=_seeds, default=None, metavar="SEEDS",
                       help="seed N, range A-B or list A,B,C (default: the scenario's, 0)")
-    demo.add_argument("--workers", type=int, default=1,
+    demo.add_argument("--workers", type=_int_at_least(1), default=1,
                       help="worker processes for several episodes (default: 1)")
     demo.add_argument("--json", help="also write every episode's result to this JSON file")
     demo.add_argument("--out", default="replays", help="folder for the HTML replays")
-    demo.add_argument("--scenario", help="scenario YAML to start from (fields: see README)")
+    demo.add_argument("--scenario", help="scenario YAML to start from (fields: see README); "
+                                         "flags given explicitly override its fields")
+    demo.add_argument("--controller", choices=["policy", "scripted"], default=None,
+                      help="policy: a trained LEGATO policy (default: --checkpoint, else the "
+                           "shipped checkpoints/legato_state_<task>.pt); scripted: the task's "
+                           "scripted expert (default: the --scenario file's, else policy)")
+    demo.add_argument("--checkpoint", metavar="PT",
+                      help="policy checkpoint to run with --controller policy")
     demo.add_argument("--no-camera", action="store_true", help="do not render the cameras")
     demo.add_argument("--no-replay", action="store_true", help="do not write HTML replays")
     demo.set_defaults(func=cmd_demo)
@@ -248,12 +495,16 @@ def build_parser() -> argparse.ArgumentParser:
         description="Records the scripted demonstrator's gripper trajectory on Abstract for "
                     "each seed, replays it open-loop on each embodiment in the same scene, and "
                     "prints tracking error, joint-limit margin, IK solve time, speed and "
-                    "success per embodiment and task; writes OUT/retarget.csv and .json.")
-    retarget.add_argument("--embodiments", default="all", help="names or 'all' (default)")
-    retarget.add_argument("--tasks", default="lid", help="names or 'all' (default: lid)")
+                    "success per embodiment and task; writes OUT/retarget.csv and .json. "
+                    "Exits 1 if any replay failed.")
+    retarget.add_argument("--embodiments", "--embodiment", dest="embodiments", default="all",
+                          help="names or 'all' (default)")
+    retarget.add_argument("--tasks", "--task", dest="tasks", default="lid",
+                          help="names or 'all' (default: lid)")
     retarget.add_argument("--seeds", type=_seeds, default=_seeds("0-4"),
                           help="N, A-B or A,B,C (default: 0-4)")
-    retarget.add_argument("--workers", type=int, default=1, help="worker processes")
+    retarget.add_argument("--workers", type=_int_at_least(1), default=1,
+                          help="worker processes")
     retarget.add_argument("--out", default="results/retarget", help="folder for CSV and JSON")
     retarget.set_defaults(func=cmd_retarget_benchmark)
 
@@ -267,22 +518,40 @@ def build_parser() -> argparse.ArgumentParser:
     collect.add_argument("--task", default="lid", help="task name (default: lid)")
     collect.add_argument("--embodiment", default="abstract",
                          help="embodiment name (default: abstract)")
-    collect.add_argument("--episodes", type=int, default=150,
+    collect.add_argument("--episodes", type=_int_at_least(1), default=150,
                          help="episodes to keep (default: 150)")
     collect.add_argument("--out", required=True, help="dataset file, e.g. data/lid.hdf5")
-    collect.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    collect.add_argument("--workers", type=_int_at_least(1), default=1,
+                         help="worker processes (default 1)")
     collect.add_argument("--keep-failures", action="store_true",
                          help="keep failed episodes too (success is recorded per demo)")
-    collect.add_argument("--seed0", type=int, default=0, help="first seed (default: 0)")
+    collect.add_argument("--seed0", type=_int_at_least(0), default=0,
+                         help="first seed (default: 0)")
     collect.add_argument("--source", metavar="PATH",
                          help="pose-stream file (CSV/NPZ) or folder of them: one replayed "
                               "episode per file instead of the scripted demonstrator")
     collect.add_argument("--no-camera", action="store_true",
                          help="state-only dataset (no images; about twice as fast)")
-    collect.add_argument("--duration", type=float, default=None,
+    collect.add_argument("--duration", type=_seconds, default=None,
                          help="seconds per episode after homing (default: the scenario's 40)")
-    collect.add_argument("--max-attempts", type=int, default=None,
+    collect.add_argument("--max-attempts", type=_int_at_least(1), default=None,
                          help="most seeds to try (default: 3 x episodes + 10)")
+    collect.add_argument("--overwrite", action="store_true",
+                         help="replace an existing OUT (and its OUT.parts/) instead of "
+                              "extending it; without it, asking an existing dataset for "
+                              "fewer episodes than it holds is refused")
+    collect.add_argument("--noise-mm", type=float, default=0.0, metavar="MM",
+                         help="DART-style perturbation of the scripted expert: standard "
+                              "deviation of the executed pose's offset per axis, mm; the "
+                              "dataset records the expert's corrections (default 0)")
+    collect.add_argument("--noise-deg", type=float, default=0.0, metavar="DEG",
+                         help="the same for the rotation, degrees per axis (default 0)")
+    collect.add_argument("--noise-correlation", type=float, default=0.8, metavar="RHO",
+                         help="step-to-step correlation of the offset, in [0, 1) "
+                              "(default 0.8)")
+    collect.add_argument("--stop-on-success", action="store_true",
+                         help="end each episode at success (by default the release, hold "
+                              "and retreat after it are recorded too)")
     collect.set_defaults(func=cmd_collect)
 
     inspect = verbs.add_parser(
@@ -292,7 +561,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "writes a strip of stereo frames and a gripper-trajectory plot of one "
                     "episode. Exits 1 if the dataset is invalid, 2 if it cannot be read.")
     inspect.add_argument("file", help="dataset file")
-    inspect.add_argument("--episode", type=int, default=0, help="demo index to plot (0)")
+    inspect.add_argument("--episode", type=_int_at_least(0), default=0,
+                         help="demo index to plot (0)")
     inspect.add_argument("--out", help="folder for the plots (default: FILE.inspect/)")
     inspect.set_defaults(func=cmd_inspect)
 
@@ -306,12 +576,37 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--config", required=True, help="learning config YAML")
     train.add_argument("--data", required=True, help="dataset file, e.g. data/lid.hdf5")
     train.add_argument("--out", required=True, help="run folder, e.g. runs/legato")
-    train.add_argument("--steps", type=int, default=None, help="steps in all (default: config)")
+    train.add_argument("--steps", type=_int_at_least(1), default=None,
+                       help="steps in all (default: config)")
     train.add_argument("--device", default="cpu", help="cpu (default) or cuda")
     train.add_argument("--resume", action="store_true", help="continue from OUT/last.pt")
+    train.add_argument("--overwrite", action="store_true",
+                       help="replace the run already in OUT (checkpoints, log, config, "
+                            "snapshots; kept until the new run finishes); without it (or "
+                            "--resume), a run folder that holds one is refused")
     train.add_argument("--set", action="append", metavar="FIELD=VALUE",
                        help="override a config field (repeatable), e.g. invariant_weight=0")
     train.set_defaults(func=cmd_train)
+
+    select = verbs.add_parser(
+        "select", help="choose a run's checkpoint by rollouts on validation scene seeds",
+        description="Rolls out each candidate of a training run (its step_<N>.pt snapshots, "
+                    "kept with --set snapshot_every=N, and last.pt) for --trials validation "
+                    "scene seeds from --seed0 (default 5000: disjoint from the training "
+                    "demos and from evaluation's 10000 on) and writes the most successful "
+                    "to RUN/selected.pt (the later on ties) and RUN/selection.json. "
+                    "evaluate refuses to reuse the selection seeds.")
+    select.add_argument("--run", required=True, help="training run folder, e.g. runs/legato")
+    select.add_argument("--task", required=True, help="task the run was trained on")
+    select.add_argument("--embodiment", default="abstract",
+                        help="embodiment to roll out on (default: abstract)")
+    select.add_argument("--trials", type=_int_at_least(1), default=20,
+                        help="validation seeds (20)")
+    select.add_argument("--seed0", type=_int_at_least(0), default=5000,
+                        help="first validation seed (5000)")
+    select.add_argument("--workers", type=_int_at_least(1), default=1,
+                        help="worker processes (1)")
+    select.set_defaults(func=cmd_select)
 
     evaluate = verbs.add_parser(
         "evaluate", help="closed-loop trials of a trained policy; success table and plot",
@@ -320,23 +615,38 @@ def build_parser() -> argparse.ArgumentParser:
                     "OUT/<method>.json and .csv after every trial (a rerun resumes), "
                     "OUT/<method>.png (success with 95 % Wilson intervals) and Meshcat "
                     "replays of the first --replays trials. --plot FILES combines results "
-                    "files into OUT/success_rates.png.")
+                    "files into OUT/success_rates.png. Exits 0 when every trial ran (failed "
+                    "trials are results), 1 if a trial raised an error.")
     evaluate.add_argument("--checkpoint", help="checkpoint, e.g. runs/legato/best.pt")
-    evaluate.add_argument("--embodiments", default="all", help="names or 'all' (default)")
-    evaluate.add_argument("--tasks", default="lid", help="names or 'all' (default: lid)")
-    evaluate.add_argument("--trials", type=int, default=50, help="trials per cell (50)")
-    evaluate.add_argument("--workers", type=int, default=1, help="worker processes (1)")
+    evaluate.add_argument("--embodiments", "--embodiment", dest="embodiments", default="all",
+                          help="names or 'all' (default)")
+    evaluate.add_argument("--tasks", "--task", dest="tasks", default="lid",
+                          help="names or 'all' (default: lid)")
+    evaluate.add_argument("--trials", type=_int_at_least(1), default=None,
+                          help="trials per cell (50)")
+    evaluate.add_argument("--workers", type=_int_at_least(1), default=1,
+                          help="worker processes (1)")
     evaluate.add_argument("--out", default="results", help="results folder (results/)")
-    evaluate.add_argument("--replays", type=int, default=0,
+    evaluate.add_argument("--replays", type=_int_at_least(0), default=0,
                           help="Meshcat HTML replays of the first K trials per cell (0)")
     evaluate.add_argument("--method", help="method name (default: the config's name)")
-    evaluate.add_argument("--seed0", type=int, default=10000,
+    evaluate.add_argument("--seed0", type=_int_at_least(0), default=None,
                           help="first trial seed (default 10000, past the training seeds)")
-    evaluate.add_argument("--duration", type=float, default=None,
+    evaluate.add_argument("--seeds", type=_seeds, default=None, metavar="A-B",
+                          help="the trial seeds as demo spells them (N or A-B): the same as "
+                               "--seed0 A --trials B-A+1")
+    evaluate.add_argument("--duration", type=_seconds, default=None,
                           help="seconds per trial after homing (default: 40)")
     evaluate.add_argument("--plot", nargs="+", metavar="JSON",
                           help="only combine these results files into one plot and table")
+    evaluate.add_argument("--overwrite", action="store_true",
+                          help="start OUT/<method>.json afresh; without it, a results file "
+                               "of another checkpoint, --duration, --seed0 or trial set is "
+                               "refused")
     evaluate.set_defaults(func=cmd_evaluate)
+    for sub in verbs.choices.values():  # -v also after the verb
+        sub.add_argument("-v", "--verbose", action="store_true", default=argparse.SUPPRESS,
+                         help="log debug messages")
     return parser
 
 
@@ -347,9 +657,19 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
                         format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     try:
-        return args.func(args)
-    except (LegatoError, argparse.ArgumentTypeError, FileNotFoundError) as e:
-        parser.exit(2, f"legato-drake: error: {e}\n")
+        try:
+            code = args.func(args)
+        except BaseException:
+            _settle_set_aside(args, succeeded=False)
+            raise
+        _settle_set_aside(args, succeeded=True)
+        return code
+    except KeyboardInterrupt:
+        parser.exit(EXIT_INTERRUPTED, "legato-drake: interrupted\n")
+    except (LegatoError, argparse.ArgumentTypeError, OSError) as e:
+        if isinstance(e, OSError):  # not one of ours: its origin may matter (with -v)
+            log.debug("the error's traceback:", exc_info=True)
+        parser.exit(EXIT_BAD_INPUT, f"legato-drake: error: {one_line(e)}\n")
 
 
 if __name__ == "__main__":

@@ -47,7 +47,11 @@ from legato_drake.systems.gripper_actuation import GripperActuation
 from legato_drake.systems.joint_target_mux import JointTargetMux
 from legato_drake.systems.pose_replay import PoseStreamReplay
 from legato_drake.systems.render_mirror import add_render_scene
-from legato_drake.systems.scripted_demonstrator import Script, ScriptedDemonstrator
+from legato_drake.systems.scripted_demonstrator import (
+    ExpertNoise,
+    Script,
+    ScriptedDemonstrator,
+)
 from legato_drake.systems.stereo_camera import RENDERER_NAME, StereoCamera, StereoRig
 from legato_drake.systems.success_monitor import SuccessMonitor
 from legato_drake.systems.target_integrator import GripperTargetIntegrator
@@ -138,7 +142,8 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
     """Builds the closed-loop diagram of ``scenario``; with ``meshcat``, adds a visualizer.
     With ``script``, the demonstrator plays that script instead of planning its own (e.g. a
     demonstration recorded on another embodiment, replayed open-loop). With ``record``, adds
-    an ``EpisodeRecorder`` (one dataset sample per policy step). ``controller: replay`` plays
+    an ``EpisodeRecorder`` (one dataset sample per policy step; a perturbed expert's
+    samples hold its corrective ``label``). ``controller: replay`` plays
     the scenario's ``pose_stream`` instead of the scripted demonstrator."""
     scenario.validate()
     builder = DiagramBuilder()
@@ -157,8 +162,12 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
         if controller.obs_mode == "state":
             builder.Connect(state, controller.get_plant_state_input_port())
     else:
+        noise = scenario.expert_noise
         controller = builder.AddNamedSystem(
-            "scripted_demonstrator", ScriptedDemonstrator(plant, task, scenario.seed, script))
+            "scripted_demonstrator", ScriptedDemonstrator(
+                plant, task, scenario.seed, script,
+                noise=ExpertNoise(noise.position_std, np.radians(noise.rotation_std_deg),
+                                  noise.correlation)))
         builder.Connect(state, controller.get_plant_state_input_port())
     split = builder.AddNamedSystem("action_split", Demultiplexer([6, 1]))
     builder.Connect(controller.GetOutputPort("action"), split.get_input_port())
@@ -218,7 +227,10 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
         recorder = builder.AddNamedSystem("episode_recorder", EpisodeRecorder(
             plant, robot.tcp_frame, images=camera is not None,
             object_bodies=object_bodies(plant, robot)))
-        builder.Connect(controller.GetOutputPort("action"), recorder.get_action_input_port())
+        # The dataset's action is the controller's label where it has one (a perturbed
+        # expert's correction), else what it executes.
+        label = "label" if controller.HasOutputPort("label") else "action"
+        builder.Connect(controller.GetOutputPort(label), recorder.get_action_input_port())
         builder.Connect(integrator.GetOutputPort("X_WG_commanded"),
                         recorder.get_commanded_pose_input_port())
         builder.Connect(state, recorder.get_plant_state_input_port())

@@ -114,37 +114,47 @@ def write_results(path: Path, doc: dict) -> None:
 def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence[str],
              trials: int, out: str | Path, workers: int = 1, replays: int = 0,
              method: str | None = None, seed0: int = EVAL_SEED0,
-             duration: float | None = None, progress: bool | None = None) -> dict:
+             duration: float | None = None, progress: bool | None = None,
+             overwrite: bool = False) -> dict:
     """Runs ``trials`` closed-loop trials of the policy per embodiment and task (skipping
     those already in the results file); returns the results document. The first ``replays``
-    trials of each cell also get a Meshcat HTML replay in ``OUT/replays/``."""
-    from tqdm import tqdm
-
+    trials of each cell also get a Meshcat HTML replay in ``OUT/replays/``. A results file
+    of another checkpoint, ``duration``, ``seed0`` or trial set is refused unless
+    ``overwrite`` (which starts it afresh)."""
     from legato_drake.learning.checkpoint import load_checkpoint
+    from legato_drake.progress import progress_bar
 
+    check_inputs(embodiments, tasks, trials, workers, replays, method, seed0, duration)
     checkpoint = Path(checkpoint).resolve()
     ckpt = load_checkpoint(checkpoint)
     sha = file_sha256(checkpoint)
     method = method or ckpt.config.name
     seeds = [seed0 + i for i in range(trials)]
-    overlap = sorted(set(seeds) & set(ckpt.train_seeds))
+    overlap = sorted(set(seeds) & set(ckpt.used_seeds))
     if overlap:
-        raise ConfigError(f"evaluation seeds {overlap[:5]} were used for training "
-                          f"({checkpoint}); choose --seed0 past {max(ckpt.train_seeds)}")
+        raise ConfigError(f"evaluation seeds {overlap[:5]} were used for training or "
+                          f"checkpoint selection ({checkpoint}); choose --seed0 past "
+                          f"{max(ckpt.used_seeds)}")
     out = Path(out)
     path = results_path(out, method)
     doc = {"format": FORMAT, "method": method, "checkpoint": str(checkpoint),
            "checkpoint_sha256": sha, "checkpoint_step": ckpt.step,
            "config": ckpt.config.to_dict(), "seed0": seed0, "duration": duration,
            "trials": []}
-    if path.is_file():
+    if path.is_file() and not overwrite:
         old = load_results(path)
         for key, what in (("checkpoint", "checkpoint"), ("checkpoint_sha256", "checkpoint"),
-                          ("duration", "--duration")):
+                          ("duration", "--duration"), ("seed0", "--seed0")):
             if old.get(key, doc[key]) != doc[key]:
                 raise ConfigError(f"{path} holds results of another {what} ({key} "
                                   f"{old.get(key)}, not {doc[key]}): use another --method or "
-                                  "--out, or the same settings to resume")
+                                  "--out, the same settings to resume, or --overwrite")
+        outside = sorted({t["seed"] for t in old["trials"]} - set(seeds))
+        if outside:
+            raise ConfigError(f"{path} holds trials of seeds up to {outside[-1]}, outside "
+                              f"--seed0 {seed0} --trials {trials} (seeds {seeds[0]}-"
+                              f"{seeds[-1]}): ask for at least as many trials to resume, use "
+                              "another --method or --out, or --overwrite")
         doc["trials"] = old["trials"]
     # Trials read a frozen copy, so a checkpoint rewritten meanwhile (training goes on) cannot
     # mix two models into one success rate.
@@ -166,8 +176,7 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
                                  html=html))
     if len(jobs) < len(embodiments) * len(tasks) * len(seeds):
         log.info("%s: %d trials already done, %d to run", path, len(doc["trials"]), len(jobs))
-    bar = dict(total=len(jobs), desc=f"evaluate {method}", unit="trial",
-               disable=None if progress is None else not progress)
+    bar = dict(total=len(jobs), desc=f"evaluate {method}", unit="trial", progress=progress)
 
     def record(row: dict) -> None:
         doc["trials"].append(row)
@@ -178,12 +187,43 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
         write_results(path, doc)
     elif workers > 1 and len(jobs) > 1:
         with multiprocessing.get_context("spawn").Pool(min(workers, len(jobs))) as pool:
-            for row in tqdm(pool.imap_unordered(_run_trial, jobs), **bar):
+            for row in progress_bar(pool.imap_unordered(_run_trial, jobs), **bar):
                 record(row)
     else:
-        for job in tqdm(jobs, **bar):
+        for job in progress_bar(jobs, **bar):
             record(_run_trial(job))
     return doc
+
+
+def check_inputs(embodiments: Sequence[str], tasks: Sequence[str], trials: int, workers: int,
+                 replays: int, method: str | None, seed0: int,
+                 duration: float | None) -> None:
+    """Checks evaluate's arguments before any work; ConfigError naming the flag."""
+    import math
+
+    from legato_drake.embodiments import EMBODIMENTS
+    from legato_drake.tasks import TASKS
+
+    for flag, names, registry in (("--embodiments", embodiments, EMBODIMENTS),
+                                  ("--tasks", tasks, TASKS)):
+        if not names:
+            raise ConfigError(f"{flag}: no names given")
+        unknown = [n for n in names if n not in registry]
+        if unknown:
+            raise ConfigError(f"{flag}: unknown {unknown}; valid values: "
+                              f"{', '.join(registry)}")
+    for flag, value, low in (("--trials", trials, 1), ("--workers", workers, 1),
+                             ("--replays", replays, 0), ("--seed0", seed0, 0)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            raise ConfigError(f"{flag} must be an integer >= {low}, got {value!r}")
+    if duration is not None and not (isinstance(duration, int | float)
+                                     and math.isfinite(duration) and duration > 0):
+        raise ConfigError(f"--duration must be a positive number of seconds, got "
+                          f"{duration!r}")
+    if method is not None and (not method or method.strip() != method or
+                               any(c in method for c in "/\\\0") or method in (".", "..")):
+        raise ConfigError(f"--method {method!r}: expected a plain name (it names the results "
+                          "files), without slashes or surrounding spaces")
 
 
 def trial_order(trial: dict) -> tuple:

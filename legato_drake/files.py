@@ -1,10 +1,13 @@
-"""Atomic file writes: a reader never sees half a file, a crash never loses the old one."""
+"""Files: atomic writes (a reader never sees half a file, a crash never loses the old one),
+reading the text files users write, and checking output locations before any work starts."""
 
 from __future__ import annotations
 
 import os
 import tempfile
 from pathlib import Path
+
+from legato_drake.errors import ConfigError
 
 
 def atomic_write_text(path: Path, text: str) -> None:
@@ -29,3 +32,62 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def read_text_file(path: str | Path, what: str) -> str:
+    """The UTF-8 text of a file a user wrote; ConfigError naming ``what`` (e.g. "scenario
+    file") and the path if it is missing, a folder, unreadable or not text."""
+    path = Path(path)
+    if not path.exists():
+        raise ConfigError(f"{what} not found: {path}")
+    if not path.is_file():
+        raise ConfigError(f"{what} {path} is not a file")
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise ConfigError(f"{what} {path}: cannot read it ({e.strerror or e})") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(f"{what} {path} is not a UTF-8 text file") from None
+    if "\0" in text:
+        raise ConfigError(f"{what} {path} is not a text file (it holds NUL bytes)")
+    return text
+
+
+def _check_ancestors(path: Path, flag: str) -> None:
+    """The nearest existing ancestor of ``path`` must be a writable folder."""
+    for parent in path.absolute().parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise ConfigError(f"{flag} {path}: {parent} is a file, not a folder")
+            if not os.access(parent, os.W_OK | os.X_OK):
+                raise ConfigError(f"{flag} {path}: the folder {parent} is not writable")
+            return
+
+
+def check_output_dir(path: str | Path, flag: str) -> Path:
+    """Checks (creating nothing) that ``path`` is, or can be made, a writable folder;
+    ConfigError naming ``flag`` otherwise. Returns the path."""
+    path = Path(path)
+    if path.exists():
+        if not path.is_dir():
+            raise ConfigError(f"{flag} {path}: is an existing file, not a folder")
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise ConfigError(f"{flag} {path}: the folder is not writable")
+        return path
+    _check_ancestors(path, flag)
+    return path
+
+
+def check_output_file(path: str | Path, flag: str) -> Path:
+    """Checks (creating nothing) that a file can be written at ``path``: not a folder, no
+    file where a parent folder must be; ConfigError naming ``flag`` otherwise."""
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"{flag} {path}: is a folder, not a file")
+    if path.exists():
+        check_output_dir(path.parent, flag)
+    else:
+        _check_ancestors(path, flag)
+    return path

@@ -1,4 +1,5 @@
-"""Where the project's model files live and how a parser finds them."""
+"""Where the project's model files and shipped policy checkpoints live, and how a parser
+finds the models."""
 
 from __future__ import annotations
 
@@ -11,6 +12,18 @@ MODELS_DIR = Path(os.environ.get("LEGATO_DRAKE_MODELS",
                                  Path(__file__).resolve().parents[1] / "models"))
 """The ``models/`` folder (with ``package.xml``) served as ``package://legato_drake/``;
 override with the ``LEGATO_DRAKE_MODELS`` environment variable."""
+
+
+CHECKPOINTS_DIR = Path(os.environ.get("LEGATO_DRAKE_CHECKPOINTS",
+                                      Path(__file__).resolve().parents[1] / "checkpoints"))
+"""The ``checkpoints/`` folder of trained policies the README's demo and results use;
+override with the ``LEGATO_DRAKE_CHECKPOINTS`` environment variable."""
+
+
+def shipped_checkpoint(task: str) -> Path:
+    """The shipped state LEGATO policy of ``task`` (``checkpoints/legato_state_<task>.pt``),
+    which ``legato-drake demo`` runs by default (it may not exist for every task)."""
+    return CHECKPOINTS_DIR / f"legato_state_{task}.pt"
 
 
 def add_package(parser: Parser) -> Parser:

@@ -9,6 +9,7 @@ Example ``scenario.yaml`` (every field is optional; the defaults are shown)::
     checkpoint: ""           # controller: policy runs this trained checkpoint
     seed: 0
     duration: 40.0
+    expert_noise: {position_std: 0.0, rotation_std_deg: 0.0, correlation: 0.8}
     camera: {enabled: true, width: 128, height: 128, fov_y_deg: 120.0}
     recording: {meshcat: false, fps: 30.0}
 """
@@ -19,9 +20,11 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import yaml
 from pydrake.common.yaml import yaml_load, yaml_load_typed
 
-from legato_drake.errors import ConfigError, unknown_name
+from legato_drake.errors import ConfigError, unknown_name, yaml_problem
+from legato_drake.files import read_text_file
 
 CONTROLLERS = ("scripted", "replay", "policy")
 """Names accepted by ``Scenario.controller``."""
@@ -53,6 +56,29 @@ class RecordingConfig:
 
 
 @dataclass
+class ExpertNoiseConfig:
+    """DART-style perturbations of the scripted expert (for collecting demonstrations that
+    teach recovery). The executed commanded pose is the plan's pose times a small random
+    offset that drifts from step to step (an AR(1) process per axis, in the gripper frame,
+    scaled by the plan's speed: full at 0.15 m/s, none where the plan is still);
+    the *label* the dataset records is the expert's correction from where it is back to its
+    plan. Zero (the default) plays the plan exactly."""
+
+    position_std: float = 0.0
+    """Standard deviation (m) of the offset's translation, per axis."""
+    rotation_std_deg: float = 0.0
+    """Standard deviation (degrees) of the offset's rotation vector, per axis."""
+    correlation: float = 0.8
+    """Step-to-step correlation of the offset, in [0, 1): 0 is white noise, near 1 a slow
+    drift (the offset's time constant is about 1 / (1 - correlation) policy steps)."""
+
+    @property
+    def enabled(self) -> bool:
+        """Whether the expert is perturbed at all."""
+        return self.position_std > 0 or self.rotation_std_deg > 0
+
+
+@dataclass
 class Scenario:
     """One episode: which robot, which task, which controller, which seed."""
 
@@ -78,6 +104,8 @@ class Scenario:
     """Simulated seconds the controller is given after homing (SPEC: 40 s)."""
     stop_on_success: bool = True
     """End the episode as soon as the task's success predicate holds."""
+    expert_noise: ExpertNoiseConfig = field(default_factory=ExpertNoiseConfig)
+    """Perturbations of ``controller: scripted`` (seeded by ``seed``); none by default."""
     camera: CameraConfig = field(default_factory=CameraConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
 
@@ -124,8 +152,18 @@ class Scenario:
         if not 10.0 <= cam.fov_y_deg < 179.0:
             raise ConfigError(f"camera.fov_y_deg{place} must be in [10, 179), got "
                               f"{cam.fov_y_deg}")
-        if self.recording.fps <= 0:
-            raise ConfigError(f"recording.fps{place} must be positive, got {self.recording.fps}")
+        noise = self.expert_noise
+        for name in ("position_std", "rotation_std_deg"):
+            value = getattr(noise, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ConfigError(f"expert_noise.{name}{place} must be a non-negative number, "
+                                  f"got {value!r}")
+        if not (math.isfinite(noise.correlation) and 0 <= noise.correlation < 1):
+            raise ConfigError(f"expert_noise.correlation{place} must be in [0, 1), got "
+                              f"{noise.correlation!r}")
+        if not (math.isfinite(self.recording.fps) and self.recording.fps > 0):
+            raise ConfigError(f"recording.fps{place} must be a positive number, got "
+                              f"{self.recording.fps}")
         return self
 
     def replace(self, **changes) -> "Scenario":
@@ -133,11 +171,11 @@ class Scenario:
         return dataclasses.replace(self, **changes).validate()
 
 
-_YAML_ERRORS = (RuntimeError, ValueError, TypeError, AssertionError, KeyError)
+_YAML_ERRORS = (yaml.YAMLError, RuntimeError, ValueError, TypeError, AssertionError, KeyError)
 
 
 def _yaml_message(error: Exception) -> str:
-    return str(error) or type(error).__name__
+    return yaml_problem(error)
 
 
 def check_fields(raw: object, schema: type, prefix: str = "") -> None:
@@ -183,9 +221,7 @@ def _load(data: str, where: str) -> "Scenario":
 def load_scenario(path: str | Path) -> Scenario:
     """Loads and validates a scenario YAML file; errors name the file and the field."""
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"scenario file not found: {path}")
-    return _load(path.read_text(), str(path))
+    return _load(read_text_file(path, "scenario file"), str(path))
 
 
 def scenario_from_yaml_text(text: str, where: str = "<string>") -> Scenario:

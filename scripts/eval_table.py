@@ -2,9 +2,12 @@
 
     python scripts/eval_table.py results/lid/*.json [--task lid]
 
-One row per method, one column per embodiment: successes out of trials and the 95 % Wilson
-interval; below them the paper's LEGATO and LEGATO (SE3) rates for the task (SPEC §9, no
-intervals reported) for comparison.
+Results files are grouped by the policy's config name (the method, e.g. ``legato_small_state``
+or its ``_se3`` twin) and its training seed (``config.seed``), so several training runs of a
+method make one row. Each cell: the mean success rate across training seeds, the range across
+seeds, and the pooled successes out of all trials with their 95 % Wilson interval; the last
+column is the cross-embodiment mean over the non-Abstract robots (the paper's summary
+figure), with its range across seeds. Below them the paper's rates (SPEC §9, no intervals).
 """
 
 from __future__ import annotations
@@ -13,30 +16,72 @@ import argparse
 from pathlib import Path
 
 from legato_drake.embodiments import EMBODIMENTS
-from legato_drake.evaluation import combine, summarize
+from legato_drake.evaluation import load_results
+from legato_drake.stats import wilson_interval
 
 PAPER = {  # success % (SPEC §9) per task: method -> embodiment -> rate
     "lid": {"LEGATO (paper)": dict(abstract=76, panda=88, spot=80, google=96, gr1=90),
-            "LEGATO SE3 (paper)": dict(abstract=80, panda=86, spot=72, google=66, gr1=66)},
+            "LEGATO SE3 (paper)": dict(abstract=80, panda=86, spot=72, google=66, gr1=66),
+            "BC-RNN (paper)": dict(abstract=56, panda=54, spot=52, google=62, gr1=48)},
     "cup": {"LEGATO (paper)": dict(abstract=84, panda=68, spot=88, google=78, gr1=48),
-            "LEGATO SE3 (paper)": dict(abstract=94, panda=48, spot=92, google=78, gr1=36)},
+            "LEGATO SE3 (paper)": dict(abstract=94, panda=48, spot=92, google=78, gr1=36),
+            "BC-RNN (paper)": dict(abstract=94, panda=50, spot=54, google=46, gr1=34)},
     "ladle": {"LEGATO (paper)": dict(abstract=80, panda=60, spot=76, google=64, gr1=72),
-              "LEGATO SE3 (paper)": dict(abstract=68, panda=20, spot=14, google=2, gr1=10)},
+              "LEGATO SE3 (paper)": dict(abstract=68, panda=20, spot=14, google=2, gr1=10),
+              "BC-RNN (paper)": dict(abstract=92, panda=24, spot=16, google=12, gr1=18)},
 }
 
 
-def table(trials: list[dict], task: str) -> list[str]:
-    """Markdown lines: methods x embodiments for ``task``."""
-    cells = {(m, e): f"{k_of_n} ({interval} %)"
-             for m, e, t, k_of_n, _, interval, *_ in summarize(trials) if t == task}
-    embodiments = [e for e in EMBODIMENTS if any(key[1] == e for key in cells)]
-    lines = ["| method | " + " | ".join(embodiments) + " |",
-             "| --- " * (len(embodiments) + 1) + "|"]
-    for method in dict.fromkeys(m for m, _ in cells):
-        lines.append(f"| {method} | "
-                     + " | ".join(cells.get((method, e), "-") for e in embodiments) + " |")
+def runs(paths: list[Path], task: str) -> dict[str, dict[int, dict[str, tuple[int, int]]]]:
+    """method -> training seed -> embodiment -> (successes, trials) for ``task``."""
+    table: dict[str, dict[int, dict[str, list[int]]]] = {}
+    for path in paths:
+        doc = load_results(path)
+        method, seed = doc["config"]["name"], int(doc["config"]["seed"])
+        cells = table.setdefault(method, {}).setdefault(seed, {})
+        for trial in doc["trials"]:
+            if trial["task"] == task:
+                k_n = cells.setdefault(trial["embodiment"], [0, 0])
+                k_n[0] += bool(trial["success"])
+                k_n[1] += 1
+    return {m: {s: {e: tuple(v) for e, v in c.items()} for s, c in seeds.items()}
+            for m, seeds in table.items()}
+
+
+def _spread(rates: list[float]) -> str:
+    mean = sum(rates) / len(rates)
+    if len(rates) == 1:
+        return f"{mean:.0f} %"
+    return f"{mean:.0f} % ({min(rates):.0f}-{max(rates):.0f})"
+
+
+def table(paths: list[Path], task: str) -> list[str]:
+    """Markdown lines: methods x embodiments (+ the cross-embodiment mean) for ``task``."""
+    data = runs(paths, task)
+    present = {e for seeds in data.values() for cells in seeds.values() for e in cells}
+    embodiments = [e for e in EMBODIMENTS if e in present]
+    others = [e for e in embodiments if e != "abstract"]
+    lines = ["| method (training seeds) | " + " | ".join(embodiments) +
+             " | cross-embodiment mean |", "| --- " * (len(embodiments) + 2) + "|"]
+    for method, seeds in data.items():
+        cells = []
+        for e in embodiments:
+            per_seed = [c[e] for c in seeds.values() if e in c]
+            if not per_seed:
+                cells.append("-")
+                continue
+            k, n = sum(x[0] for x in per_seed), sum(x[1] for x in per_seed)
+            low, high = wilson_interval(k, n)
+            cells.append(f"{_spread([100 * a / b for a, b in per_seed])}; {k}/{n} "
+                         f"[{100 * low:.0f}-{100 * high:.0f}]")
+        cross = [sum(100 * c[e][0] / c[e][1] for e in others) / len(others)
+                 for c in seeds.values() if others and all(e in c for e in others)]
+        lines.append(f"| {method} ({', '.join(str(s) for s in sorted(seeds))}) | " +
+                     " | ".join(cells) + f" | {_spread(cross) if cross else '-'} |")
     for method, rates in PAPER.get(task, {}).items():
-        lines.append(f"| {method} | " + " | ".join(f"{rates[e]} %" for e in embodiments) + " |")
+        cross = sum(rates[e] for e in others) / len(others) if others else float("nan")
+        lines.append(f"| {method} | " + " | ".join(f"{rates[e]} %" for e in embodiments) +
+                     f" | {cross:.0f} % |")
     return lines
 
 
@@ -45,7 +90,9 @@ def main() -> None:
     parser.add_argument("json", nargs="+", type=Path, help="results files of `evaluate`")
     parser.add_argument("--task", default="lid", choices=sorted(PAPER))
     args = parser.parse_args()
-    print("\n".join(table(combine(args.json), args.task)))
+    print(f"Cells: mean success across training seeds (range); pooled successes/trials "
+          f"[95 % Wilson interval]. Task: {args.task}.\n")
+    print("\n".join(table(args.json, args.task)))
 
 
 if __name__ == "__main__":

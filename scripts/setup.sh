@@ -29,5 +29,16 @@ fi
 pip=("$venv/bin/python" -m pip install --quiet --disable-pip-version-check)
 # torch first and pinned: this resolves to the CPU build (an unpinned torch pulls CUDA).
 "${pip[@]}" "torch==2.13.0"
-"${pip[@]}" -e ".[dev]"
+# Then the package with the exact set that passed the tests (requirements/constraints.txt),
+# on the Python it was resolved with; elsewhere from pyproject.toml's compatible ranges.
+constraints=requirements/constraints.txt
+locked=$(sed -n 's/^# Resolved with CPython \([0-9.]*\) .*/\1/p' "$constraints")
+have=$("$venv/bin/python" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
+if [ "$have" = "$locked" ]; then
+  "${pip[@]}" -c "$constraints" -e ".[dev]"
+else
+  echo "setup: Python $have, but $constraints was resolved with $locked:" \
+       "installing from pyproject.toml's ranges instead" >&2
+  "${pip[@]}" -e ".[dev]"
+fi
 echo "setup: ready ($venv)"

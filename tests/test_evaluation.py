@@ -193,3 +193,47 @@ def test_collect_train_evaluate_end_to_end(tmp_path, capsys):
     assert main(["evaluate", "--plot", str(path), "--out", str(tmp_path / "results")]) == 0
     assert (tmp_path / "results" / "success_rates.png").is_file()
     assert "legato_small_state" in capsys.readouterr().out
+
+
+def test_another_seed_range_is_refused_unless_overwrite(tmp_path, checkpoint, monkeypatch):
+    monkeypatch.setattr(evaluation, "_run_trial", _fake_trial)
+    evaluate(checkpoint, ["abstract"], ["lid"], 2, tmp_path, progress=False)
+    path = results_path(tmp_path, "tiny")
+    before = path.read_text()
+    with pytest.raises(ConfigError, match="--seed0") as error:
+        evaluate(checkpoint, ["abstract"], ["lid"], 2, tmp_path, seed0=20000, progress=False)
+    assert "--overwrite" in str(error.value)
+    with pytest.raises(ConfigError, match="outside"):  # fewer trials: another trial set
+        evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False)
+    assert path.read_text() == before  # nothing merged, nothing lost
+    doc = evaluate(checkpoint, ["abstract"], ["lid"], 3, tmp_path, progress=False)
+    assert [t["seed"] for t in doc["trials"]] == [10000, 10001, 10002]  # extends
+    doc = evaluate(checkpoint, ["abstract"], ["lid"], 2, tmp_path, seed0=20000,
+                   overwrite=True, progress=False)
+    assert [t["seed"] for t in doc["trials"]] == [20000, 20001]
+    assert load_results(path)["seed0"] == 20000
+
+
+@pytest.mark.parametrize("changes, words", [
+    (dict(trials=0), ["--trials"]),
+    (dict(seed0=-100), ["--seed0"]),
+    (dict(duration=float("nan")), ["--duration"]),
+    (dict(duration=-1.0), ["--duration"]),
+    (dict(workers=0), ["--workers"]),
+    (dict(replays=-1), ["--replays"]),
+    (dict(method="../x"), ["--method"]),
+    (dict(embodiments=["r2d2"]), ["--embodiments", "r2d2"]),
+    (dict(tasks=[]), ["--tasks"]),
+])
+def test_inputs_are_checked_before_any_work(tmp_path, changes, words):
+    args = dict(embodiments=["abstract"], tasks=["lid"], trials=1, workers=1, replays=0,
+                method=None, seed0=10000, duration=None)
+    args.update(changes)
+    with pytest.raises(ConfigError) as error:
+        evaluation.check_inputs(**args)
+    for word in words:
+        assert word in str(error.value)
+    kwargs = {k: v for k, v in args.items() if k not in ("embodiments", "tasks", "trials")}
+    with pytest.raises(ConfigError):  # evaluate checks them before reading the checkpoint
+        evaluate(tmp_path / "none.pt", args["embodiments"], args["tasks"], args["trials"],
+                 tmp_path, **kwargs)

@@ -153,3 +153,53 @@ def test_rollout_images_are_preprocessed_as_in_training(tmp_path):
         frame = f["data/demo_0/obs/left_gray"][0]  # (H, W, 1) uint8, what the camera outputs
     torch.testing.assert_close(image_to_tensor(frame), item["obs"]["left_gray"][0])
     assert image_to_tensor(frame).shape == (1, 16, 16)
+
+
+@pytest.mark.parametrize("history", [0, 1, 2])
+def test_history_switch_sets_what_the_network_receives(history):
+    """``history`` pose-delta steps reach the network (the last ones); the rest of the
+    history never changes its output."""
+    config = tiny_config(history=history, invariant_weight=0.0)
+    assert (("delta_positions" in config.obs_keys) == (history > 0))
+    assert {"delta_positions", "delta_eulers"} <= set(config.dataset_keys)
+    policy = RecurrentGMMPolicy(config, _stats()).eval()
+    state_dims = 27 + 2  # object_in_tcp (3 bodies) + fingers
+    assert policy.rnn.input_size == state_dims + 6 * history
+    batch = _batch()
+    out, _ = policy(batch["obs"])
+    changed = {k: v.clone() for k, v in batch["obs"].items()}
+    seen = slice(3 * (2 - history), 6)
+    unseen = slice(0, 3 * (2 - history))
+    for key in ("delta_positions", "delta_eulers"):
+        changed[key][..., unseen] += 1.0
+    torch.testing.assert_close(policy(changed)[0].means, out.means)
+    if history:
+        for key in ("delta_positions", "delta_eulers"):
+            changed[key][..., seen] += 1.0
+        assert not torch.allclose(policy(changed)[0].means, out.means)
+
+
+def test_invariant_loss_reads_the_dataset_history_when_the_network_does_not():
+    """Appendix A needs the demonstrated history for phi even with ``history: 0``."""
+    torch.manual_seed(0)
+    policy = RecurrentGMMPolicy(tiny_config(history=0, invariant_weight=1.0), _stats())
+    batch = _batch()
+    invar = policy.losses(batch)["invar"]
+    turned = batch["obs"]["delta_positions"].flip(-1)  # other directions of motion
+    other = {**batch, "obs": {**batch["obs"], "delta_positions": turned}}
+    assert invar > 0 and not torch.isclose(policy.losses(other)["invar"], invar)
+    out, _ = policy(batch["obs"])
+    torch.testing.assert_close(policy(other["obs"])[0].means, out.means)  # not an input
+
+
+def test_history_noise_and_dropout_act_in_training_only():
+    config = tiny_config(history=2, history_noise=0.5, history_dropout=0.5,
+                         invariant_weight=0.0)
+    policy = RecurrentGMMPolicy(config, _stats())
+    obs = _batch()["obs"]
+    policy.eval()
+    torch.testing.assert_close(policy.features(obs), policy.features(obs))
+    policy.train()
+    assert not torch.allclose(policy.features(obs), policy.features(obs))
+    clean = RecurrentGMMPolicy(tiny_config(history=2, invariant_weight=0.0), _stats()).train()
+    torch.testing.assert_close(clean.features(obs), clean.features(obs))

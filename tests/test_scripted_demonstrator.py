@@ -13,6 +13,7 @@ from legato_drake.diagram import build_plant
 from legato_drake.poses import apply_delta, pose_error
 from legato_drake.scenario import Scenario
 from legato_drake.systems.scripted_demonstrator import (
+    ExpertNoise,
     ScriptedDemonstrator,
     min_jerk,
     script_from_waypoints,
@@ -20,9 +21,9 @@ from legato_drake.systems.scripted_demonstrator import (
 from legato_drake.tasks.base import Waypoint
 
 
-def _demonstrator(plant_tuple, seed):
+def _demonstrator(plant_tuple, seed, noise=None):
     plant, _, _, task = plant_tuple
-    system = ScriptedDemonstrator(plant, task, seed)
+    system = ScriptedDemonstrator(plant, task, seed, noise=noise)
     context = system.CreateDefaultContext()
     plant_context = plant.CreateDefaultContext()
     task.set_initial_state(plant, plant_context, np.random.default_rng(seed))
@@ -39,6 +40,18 @@ def _actions(system, context, steps):
                             + k * conventions.POLICY_PERIOD + 0.01)
         actions.append(system.GetOutputPort("action").Eval(context).copy())
     return np.array(actions)
+
+
+def _both(system, context, steps):
+    """(executed actions, labels) of the first ``steps`` steps."""
+    simulator = Simulator(system, context)
+    executed, labels = [], []
+    for k in range(steps):
+        simulator.AdvanceTo(conventions.HOMING_DURATION + conventions.CONTROLLER_OFFSET
+                            + k * conventions.POLICY_PERIOD + 0.01)
+        executed.append(system.GetOutputPort("action").Eval(context).copy())
+        labels.append(system.GetOutputPort("label").Eval(context).copy())
+    return np.array(executed), np.array(labels)
 
 
 def test_min_jerk_profile():
@@ -86,10 +99,10 @@ def test_done_after_the_script(panda_plant):
 
 
 @pytest.mark.parametrize("task_name", ["lid", "cup", "ladle"])
-def test_every_release_follows_the_end_of_a_motion(task_name):
-    """What a policy can imitate: the grasp opens on the step right after the gripper stopped
-    moving from full speed (an observable event), never after a hold in an unchanging scene
-    or a minimum-jerk creep (the Waypoint rule)."""
+def test_every_grasp_change_follows_the_end_of_a_motion(task_name):
+    """What a policy can imitate: the grasp closes and opens on the step right after the
+    gripper stopped moving from full speed (an observable event), never after a hold in an
+    unchanging scene or a minimum-jerk creep (the Waypoint rule)."""
     plant, _, _, task = build_plant(Scenario(embodiment="abstract", task=task_name),
                                     DiagramBuilder())
     for seed in range(3):
@@ -98,8 +111,51 @@ def test_every_release_follows_the_end_of_a_motion(task_name):
         plan = task.plan_demonstration(plant, context, np.random.default_rng([seed, 1]))
         script = script_from_waypoints(conventions.START_POSE, plan)
         releases = np.flatnonzero((script.grasps[:-1] > 0.5) & (script.grasps[1:] < 0.5)) + 1
-        assert len(releases) == 1
-        for k in releases:
+        grasps = np.flatnonzero((script.grasps[:-1] < 0.5) & (script.grasps[1:] > 0.5)) + 1
+        assert len(releases) == 1 and len(grasps) == 1
+        for k in (*grasps, *releases):
             moved = np.linalg.norm(script.poses[k - 1, :3] - script.poses[k - 2, :3])
-            assert moved > 0.004, f"{task_name} seed {seed}: release after a hold or a creep"
+            assert moved > 0.004, f"{task_name} seed {seed}: step {k} after a hold or a creep"
             np.testing.assert_allclose(script.poses[k], script.poses[k - 1])  # stopped
+
+
+def test_without_noise_the_label_is_the_action(panda_plant):
+    executed, labels = _both(*_demonstrator(panda_plant, seed=3), 30)
+    np.testing.assert_array_equal(executed, labels)
+
+
+def test_noisy_expert_labels_correct_back_to_the_plan(panda_plant):
+    """DART-style collection: the executed poses wander off the plan by the configured
+    offset, and each label leads from the executed pose of the previous step back onto the
+    plan (so a dataset of labels teaches the corrections)."""
+    noise = ExpertNoise(position_std=0.005, rotation_std=np.radians(2.0), correlation=0.8)
+    system, context = _demonstrator(panda_plant, seed=3, noise=noise)
+    n = 110
+    executed, labels = _both(system, context, n)
+    script = system.script(context)
+    assert len(script) >= n
+    X = conventions.START_POSE
+    offsets = []
+    for k in range(n):
+        on_plan = apply_delta(X, labels[k, :6])
+        dp, dr = pose_error(on_plan, script.pose(k))
+        assert dp < 1e-9 and dr < 1e-9, f"step {k}: the label does not lead back to the plan"
+        X = apply_delta(X, executed[k, :6])
+        offsets.append(pose_error(X, script.pose(k))[0])
+        assert executed[k, 6] == labels[k, 6] == script.grasps[k]
+        if k > 0 and np.array_equal(script.poses[k], script.poses[k - 1]):
+            assert offsets[-1] < 1e-9, f"step {k}: perturbed where the plan holds still"
+    offsets = np.array(offsets)
+    transit = offsets[5:40]  # the fast move to the pre-grasp pose
+    assert 0.002 < transit.mean() < 0.02 and offsets.max() < 0.05  # about sqrt(3) * 5 mm
+    assert (offsets < 1e-9).sum() >= 5  # the grasp hold
+    again = _both(*_demonstrator(panda_plant, seed=3, noise=noise), n)
+    np.testing.assert_array_equal(again[0], executed)  # seeded
+
+
+def test_noisy_expert_removes_its_offset_when_done(panda_plant):
+    noise = ExpertNoise(position_std=0.005, rotation_std=0.02)
+    system, context = _demonstrator(panda_plant, seed=1, noise=noise)
+    Simulator(system, context).AdvanceTo(conventions.HOMING_DURATION + 60.0)
+    np.testing.assert_array_equal(system.GetOutputPort("action").Eval(context)[:6], 0.0)
+    np.testing.assert_array_equal(system.GetOutputPort("label").Eval(context)[:6], 0.0)

@@ -32,12 +32,14 @@ from legato_drake.data.layout import DatasetError, open_dataset, read_json_attr,
 from legato_drake.data.pose_stream import find_pose_streams, load_pose_stream
 from legato_drake.data.writer import Episode, env_args_for, merge_demos, write_dataset
 from legato_drake.files import atomic_write_text
-from legato_drake.scenario import Scenario
+from legato_drake.progress import progress_bar
+from legato_drake.scenario import ExpertNoiseConfig, Scenario
 
 log = logging.getLogger(__name__)
 
 PART_GROUP = "data/demo_0"
-CONFIG_KEYS = ("task", "embodiment", "camera", "duration", "source", "keep_failures")
+CONFIG_KEYS = ("task", "embodiment", "camera", "duration", "source", "keep_failures",
+               "expert_noise", "stop_on_success")
 """Collect settings that change what an episode is: a resumed collection must match them."""
 
 
@@ -293,7 +295,8 @@ def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers:
             keep_failures: bool = False, seed0: int = 0, source: str | Path | None = None,
             camera: bool = True, duration: float | None = None,
             max_attempts: int | None = None, keep_parts: bool = False,
-            progress: bool | None = None) -> CollectReport:
+            progress: bool | None = None, expert_noise: ExpertNoiseConfig | None = None,
+            stop_on_success: bool = False) -> CollectReport:
     """Collects ``episodes`` demonstrations of ``task`` on ``embodiment`` into ``out``.
 
     Seeds ``seed0, seed0 + 1, ..`` are tried in order (at most ``max_attempts``, default
@@ -301,14 +304,29 @@ def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers:
     ``keep_failures``). With ``source`` (a pose-stream file or folder) each stream is one
     episode, replayed by ``controller: replay`` in the scene of its recorded seed (else
     ``seed0 + i``). ``camera=False`` records a state-only dataset; ``duration`` overrides the
-    scenario's episode length. Resumable; see the module docstring."""
+    scenario's episode length. ``expert_noise`` perturbs the scripted expert (DART-style:
+    the recorded actions are its corrections, ``ScriptedDemonstrator``). By default an
+    episode is recorded to its end (the release, the hold and the retreat after success);
+    ``stop_on_success`` ends it a few samples after the release instead. Resumable; see the
+    module docstring."""
+    # Guard (issue 12): collecting never shrinks an existing dataset.
+    if Path(out).is_file():
+        try:
+            with open_dataset(out) as f:
+                held = len(sorted_demos(f["data"]))
+        except (DatasetError, KeyError, OSError):
+            held = 0  # not a readable dataset: the checks below name the problem
+        if held > episodes:
+            raise DatasetError(f"{out} already holds {held} episodes, more than --episodes "
+                               f"{episodes}: collecting never shrinks a dataset; ask for at "
+                               f"least {held}, choose another --out, or pass --overwrite to "
+                               "replace it")
     start = time.perf_counter()
-    from tqdm import tqdm
-
     out = Path(out)
     if episodes < 1:
         raise DatasetError(f"episodes must be at least 1, got {episodes}")
-    base = Scenario(embodiment=embodiment, task=task)
+    base = Scenario(embodiment=embodiment, task=task, stop_on_success=stop_on_success,
+                    expert_noise=expert_noise or ExpertNoiseConfig())
     base.camera.enabled = camera
     if duration is not None:
         base = base.replace(duration=duration)
@@ -318,7 +336,9 @@ def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers:
         source_names = [p.name for p in find_pose_streams(source)[:episodes]]
     config = dict(task=task, embodiment=base.embodiment, camera=camera,
                   duration=base.duration, source=source_names, seed0=seed0,
-                  keep_failures=keep_failures, episodes=episodes)
+                  keep_failures=keep_failures, episodes=episodes,
+                  expert_noise=dataclasses.asdict(base.expert_noise),
+                  stop_on_success=stop_on_success)
     folder = parts_dir(out)
     if out.exists() and not folder.exists():
         manifest = _up_to_date(out, config)
@@ -343,8 +363,8 @@ def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers:
         needed, keep_all = episodes, keep_failures
     order = {job.key: i for i, job in enumerate(jobs)}
     keepable = [k for k, o in outcomes.items() if k in order and _keepable(o, keep_all)]
-    bar = tqdm(total=needed, initial=min(len(keepable), needed), desc="collect",
-               unit="episode", disable=None if progress is None else not progress)
+    bar = progress_bar(progress=progress, total=needed, initial=min(len(keepable), needed),
+                       desc="collect", unit="episode")
     try:
         _schedule(jobs, outcomes, needed, keep_all, workers, folder, bar)
     finally:

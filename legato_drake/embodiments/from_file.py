@@ -8,6 +8,7 @@ Example (paths are relative to the YAML file; every angle in degrees)::
     base_type: fixed                   # fixed | planar (x, y, yaw) | floating (6 DoF)
     base_pose: {xyz: [-0.2, 0.0, 0.7], rpy_deg: [0, 0, 0]}
     base_range: {x: 0.3, y: 0.3, yaw: 180}   # planar/floating: half-ranges around base_pose
+    base_gains: {translation: [20000, 2000], rotation: [5000, 500]}   # planar/floating
     mount_frame: tool0                 # the frame that holds the gripper
     mount: {xyz: [0, 0, 0], rpy_deg: [0, -90, 0]}   # gripper base pose in mount_frame
     home: {shoulder: 0.0, elbow: 1.2}  # radians or metres; unnamed joints home at 0
@@ -18,15 +19,28 @@ Example (paths are relative to the YAML file; every angle in degrees)::
 
 The gripper frame's +x is its approach direction and +z its "up" (camera side); ``mount``
 must put the gripper there on your robot. Loading checks the whole definition against the
-model (frames, joints, gains) and every error names the file and the field.
+model (frames, joints, gains, types and ranges of every number) and every error names the
+file and the field.
+
+A URDF model without ``<transmission>`` elements (as many arm URDFs come) gets every
+revolute, continuous and prismatic joint actuated: the loader writes a copy of the URDF with
+one transmission per such joint into the user cache (``$XDG_CACHE_HOME/legato_drake``, mesh
+paths made absolute) and logs a note. Add transmissions to actuate only some joints.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import logging
+import math
+import os
+import re
 from pathlib import Path
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
+import yaml
 from pydrake.common.yaml import yaml_load
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.parsing import Parser
@@ -40,28 +54,37 @@ from legato_drake.embodiments.base import (
     actuators_of,
     add_embodiment,
 )
-from legato_drake.errors import ConfigError
+from legato_drake.errors import ConfigError, yaml_problem
+from legato_drake.files import atomic_write_text, read_text_file
 from legato_drake.models import add_package
+
+log = logging.getLogger(__name__)
 
 REQUIRED = ("name", "model", "base_frame", "mount_frame", "pd_gains")
 OPTIONAL = ("base_type", "base_pose", "base_range", "base_gains", "mount", "home", "ik",
             "description")
-IK_FIELDS = ("tracking_gain", "posture_gain", "posture_joints", "posture_weight",
-             "posture_task_weight",
-             "max_joint_speed", "max_joint_acceleration", "joint_speed_limits",
-             "joint_acceleration_limits", "joint_position_limits", "joint_velocity_weights",
+IK_SCALARS = {  # field: smallest allowed value, and whether it is allowed itself
+    "tracking_gain": (0.0, False), "posture_gain": (0.0, True),
+    "posture_weight": (0.0, True), "posture_task_weight": (0.0, True),
+    "max_joint_speed": (0.0, False), "max_joint_acceleration": (0.0, False)}
+"""The IK's scalar fields and their ranges."""
+IK_TABLES = ("joint_speed_limits", "joint_acceleration_limits", "joint_velocity_weights")
+"""The IK's per-joint tables of positive numbers."""
+IK_FIELDS = (*IK_SCALARS, "posture_joints", *IK_TABLES, "joint_position_limits",
              "orientation_tasks")
+MOVABLE_JOINTS = ("revolute", "prismatic")
+"""Drake joint types that a URDF without transmissions gets actuated (continuous joints
+are revolute in Drake)."""
 
 
 def load_embodiment_file(path: str | Path) -> Embodiment:
     """Reads, checks and returns the embodiment defined in the YAML file ``path``."""
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"embodiment file not found: {path}")
+    text = read_text_file(path, "embodiment file")
     try:
-        raw = yaml_load(filename=str(path))
-    except RuntimeError as e:
-        raise ConfigError(f"{path}: not valid YAML: {e}") from None
+        raw = yaml_load(data=text) if text.strip() else None
+    except (yaml.YAMLError, RuntimeError, ValueError) as e:
+        raise ConfigError(f"{path}: {yaml_problem(e)}") from None
     try:
         emb = _parse(raw, path.parent)
         check_embodiment(emb)
@@ -74,30 +97,32 @@ def check_embodiment(emb: Embodiment) -> None:
     """Adds the embodiment to a scratch plant: raises ConfigError on any mismatch."""
     plant = MultibodyPlant(0.002)
     try:
-        add_embodiment(plant, add_package(Parser(plant)), emb)
+        handles = add_embodiment(plant, add_package(Parser(plant)), emb)
         plant.Finalize()
     except ConfigError:
         raise
     except (RuntimeError, ValueError) as e:  # Drake's parser and plant errors
         raise ConfigError(f"model {emb.model}: {e}") from None
+    for i, task in enumerate(emb.ik.orientation_tasks):
+        if not plant.HasFrameNamed(task.frame, handles.robot):
+            frames = sorted(plant.get_frame(f).name() for f in plant.GetFrameIndices(handles.robot))
+            raise ConfigError(f"ik.orientation_tasks[{i}].frame {task.frame!r} is not a frame "
+                              f"of {emb.model}; frames: {', '.join(frames)}")
 
 
 def _parse(raw: object, folder: Path) -> Embodiment:
     if not isinstance(raw, dict):
-        raise ConfigError("expected a mapping of fields at the top level")
+        raise ConfigError("expected a mapping of fields at the top level, got "
+                          f"{_short(raw)}")
     unknown = set(raw) - set(REQUIRED) - set(OPTIONAL)
     if unknown:
-        raise ConfigError(f"unknown field(s) {sorted(unknown)}; valid fields: "
+        raise ConfigError(f"unknown field(s) {sorted(map(str, unknown))}; valid fields: "
                           f"{', '.join(REQUIRED + OPTIONAL)}")
-    missing = [k for k in REQUIRED if k not in raw]
+    missing = [k for k in REQUIRED if raw.get(k) is None]
     if missing:
         raise ConfigError(f"missing required field(s) {missing}")
-    model = str(raw["model"])
-    if "://" not in model:
-        resolved = (folder / model).resolve()
-        if not resolved.is_file():
-            raise ConfigError(f"model: file not found: {resolved}")
-        model = str(resolved)
+    name = _name(raw["name"])
+    model = _model_path(_string(raw["model"], "model"), folder)
     base_type = raw.get("base_type", "fixed")
     if base_type not in ("fixed", *BASE_AXES):
         raise ConfigError(f"base_type {base_type!r}; valid values: fixed, "
@@ -107,62 +132,266 @@ def _parse(raw: object, folder: Path) -> Embodiment:
         if axis not in BASE_AXES.get(base_type, ()):
             raise ConfigError(f"base_range.{axis}: not an axis of a {base_type} base "
                               f"(axes: {', '.join(BASE_AXES.get(base_type, ())) or 'none'})")
-    base_range = {a: float(v) if a in ("x", "y", "z") else np.radians(float(v))
-                  for a, v in ranges.items()}
+    base_range = {}
+    for axis, value in ranges.items():
+        half = _number(value, f"base_range.{axis}", low=0.0)
+        base_range[axis] = half if axis in ("x", "y", "z") else math.radians(half)
+    extra = {}
+    if raw.get("base_gains") is not None:
+        extra["base_gains"] = _base_gains(raw["base_gains"], base_type)
     gains = _mapping(raw, "pd_gains")
     default = gains.pop("default", None)
-    pd_gains = {j: _gain_pair(v, f"pd_gains.{j}") for j, v in gains.items()}
-    ik_raw = _mapping(raw, "ik")
-    bad = set(ik_raw) - set(IK_FIELDS)
-    if bad:
-        raise ConfigError(f"ik: unknown field(s) {sorted(bad)}; valid fields: "
-                          f"{', '.join(IK_FIELDS)}")
-    if "posture_joints" in ik_raw:
-        ik_raw["posture_joints"] = tuple(ik_raw["posture_joints"])
-    if "orientation_tasks" in ik_raw:
-        tasks = ik_raw["orientation_tasks"]
-        try:
-            ik_raw["orientation_tasks"] = tuple(OrientationTask(**t) for t in tasks)
-        except TypeError:
-            raise ConfigError("ik.orientation_tasks: expected a list of {frame: NAME, gain: "
-                              f"G, weight: W}}, got {tasks!r}") from None
+    pd_gains = {_string(j, "pd_gains (a joint name)"): _gain_pair(v, f"pd_gains.{j}")
+                for j, v in gains.items()}
+    home = {_string(j, "home (a joint name)"): _number(v, f"home.{j}")
+            for j, v in _mapping(raw, "home").items()}
+    model, actuated = _actuated_model(model, name)
     emb = Embodiment(
-        name=str(raw["name"]), model=model, base_frame=str(raw["base_frame"]),
+        name=name, model=model, base_frame=_string(raw["base_frame"], "base_frame"),
         base_pose=_pose(raw.get("base_pose"), "base_pose"),
-        mount_frame=str(raw["mount_frame"]), X_mount_gripper=_pose(raw.get("mount"), "mount"),
-        home={j: float(v) for j, v in _mapping(raw, "home").items()},
-        pd_gains=pd_gains, ik=IkSettings(**ik_raw), description=str(raw.get("description", "")),
-        base_type=base_type, base_range=base_range)
+        mount_frame=_string(raw["mount_frame"], "mount_frame"),
+        X_mount_gripper=_pose(raw.get("mount"), "mount"), home=home, pd_gains=pd_gains,
+        ik=_ik_settings(_mapping(raw, "ik")),
+        description=_string(raw.get("description", ""), "description"),
+        base_type=base_type, base_range=base_range, **extra)
     if default is not None:
-        emb = _with_default_gains(emb, _gain_pair(default, "pd_gains.default"))
+        default = _gain_pair(default, "pd_gains.default")
+        emb = dataclasses.replace(emb, pd_gains={**{n: default for n in actuated},
+                                                 **emb.pd_gains})
     return emb
 
 
-def _with_default_gains(emb: Embodiment, gains: tuple[float, float]) -> Embodiment:
-    """Fills ``default`` PD gains in for every actuated joint the file does not name."""
+def _name(value: object) -> str:
+    """The embodiment's name: a non-empty string that is not a built-in embodiment's."""
+    from legato_drake.embodiments import EMBODIMENTS
+
+    name = _string(value, "name")
+    if not name.strip():
+        raise ConfigError("name: must not be empty")
+    if name in EMBODIMENTS:
+        raise ConfigError(f"name {name!r} is a built-in embodiment's; choose another name "
+                          f"(built-in: {', '.join(EMBODIMENTS)})")
+    return name
+
+
+def _model_path(model: str, folder: Path) -> str:
+    if "://" in model:
+        return model
+    resolved = (folder / model).resolve()
+    if not resolved.is_file():
+        raise ConfigError(f"model: file not found: {resolved}")
+    if resolved.suffix.lower() not in (".urdf", ".sdf", ".xml"):
+        raise ConfigError(f"model {resolved}: expected a URDF (.urdf) or SDF (.sdf) file")
+    return str(resolved)
+
+
+def _model_joints(model: str) -> tuple[list[str], list[str]]:
+    """Parses ``model`` alone: (its actuated joints, its revolute and prismatic joints)."""
     plant = MultibodyPlant(0.002)
     parser = add_package(Parser(plant))
     try:
-        (robot,) = (parser.AddModels(url=emb.model) if "://" in emb.model
-                    else parser.AddModels(file_name=emb.model))
+        robots = (parser.AddModels(url=model) if "://" in model
+                  else parser.AddModels(file_name=model))
     except (RuntimeError, ValueError) as e:
-        raise ConfigError(f"model {emb.model}: {e}") from None
-    names = [a.joint().name() for a in actuators_of(plant, robot)]
-    return dataclasses.replace(emb, pd_gains={**{n: gains for n in names}, **emb.pd_gains})
+        raise ConfigError(f"model {model}: {e}") from None
+    if len(robots) != 1:
+        raise ConfigError(f"model {model} holds {len(robots)} models, expected exactly one")
+    actuated = [a.joint().name() for a in actuators_of(plant, robots[0])]
+    movable = [plant.get_joint(j).name() for j in plant.GetJointIndices(robots[0])
+               if plant.get_joint(j).type_name() in MOVABLE_JOINTS]
+    return actuated, movable
+
+
+def _actuated_model(model: str, name: str) -> tuple[str, list[str]]:
+    """The model to load and its actuated joints. A URDF file without transmissions is
+    replaced by a cached copy that actuates every revolute and prismatic joint."""
+    actuated, movable = _model_joints(model)
+    if actuated:
+        return model, actuated
+    if "://" in model or not model.lower().endswith(".urdf"):
+        raise ConfigError(f"model {model} has no actuated joints (add <transmission> "
+                          "elements to a URDF, or actuators to an SDF)")
+    if not movable:
+        raise ConfigError(f"model {model} has no revolute, continuous or prismatic joint")
+    copy = _write_actuated_copy(Path(model), movable)
+    actuated, _ = _model_joints(str(copy))
+    if not actuated:
+        raise ConfigError(f"model {model} has no <transmission> elements and its joints "
+                          "cannot be actuated (zero effort limits?)")
+    if copy not in _NOTED:  # once per process: scenarios are validated often
+        _NOTED.add(copy)
+        log.info("embodiment %r: %s has no <transmission> elements; actuating its %d joints "
+                 "(%s) through %s", name, model, len(actuated), ", ".join(actuated), copy)
+    return str(copy), actuated
+
+
+_NOTED: set[Path] = set()
+"""The actuated copies whose note was logged."""
+
+
+_FILENAME = re.compile(r"""(\bfilename\s*=\s*)(["'])(.*?)\2""")
+
+
+def cache_dir() -> Path:
+    """Where generated model copies go: ``$XDG_CACHE_HOME/legato_drake`` (or ~/.cache)."""
+    root = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(root) / "legato_drake"
+
+
+def _write_actuated_copy(urdf: Path, joints: list[str]) -> Path:
+    """Writes (once, by content) a copy of ``urdf`` with one transmission per joint and its
+    relative mesh paths made absolute; returns its path."""
+    text = read_text_file(urdf, "model")
+    end = text.rfind("</robot>")
+    if end < 0:
+        raise ConfigError(f"model {urdf}: no </robot> element")
+
+    def absolute(match: re.Match) -> str:
+        target = match.group(3)
+        if "://" in target or os.path.isabs(target):
+            return match.group(0)
+        return f"{match.group(1)}{quoteattr(str((urdf.parent / target).resolve()))}"
+
+    body = _FILENAME.sub(absolute, text[:end])
+    transmissions = "".join(
+        f"\n  <transmission name={quoteattr(j + '_legato_transmission')}>"
+        "<type>transmission_interface/SimpleTransmission</type>"
+        f"<joint name={quoteattr(j)}><hardwareInterface>EffortJointInterface"
+        f"</hardwareInterface></joint><actuator name={quoteattr(j + '_legato_motor')}>"
+        "<mechanicalReduction>1</mechanicalReduction></actuator></transmission>"
+        for j in joints)
+    copy_text = f"{body}{transmissions}\n{text[end:]}"
+    digest = hashlib.sha256(f"{urdf.resolve()}\n{copy_text}".encode()).hexdigest()[:16]
+    path = cache_dir() / "actuated" / f"{urdf.stem}-{digest}.urdf"
+    if not path.is_file():
+        try:
+            atomic_write_text(path, copy_text)
+        except OSError as e:
+            raise ConfigError(f"model {urdf} has no <transmission> elements and the "
+                              f"actuated copy cannot be written to {path} ({e}); set "
+                              "XDG_CACHE_HOME or add transmissions") from None
+    return path
+
+
+def _ik_settings(raw: dict) -> IkSettings:
+    """IkSettings from the ``ik`` mapping, every field checked for its type and range."""
+    bad = set(raw) - set(IK_FIELDS)
+    if bad:
+        raise ConfigError(f"ik: unknown field(s) {sorted(map(str, bad))}; valid fields: "
+                          f"{', '.join(IK_FIELDS)}")
+    values: dict[str, object] = {}
+    for key, value in raw.items():
+        where = f"ik.{key}"
+        if key in IK_SCALARS:
+            low, inclusive = IK_SCALARS[key]
+            values[key] = _number(value, where, low=low, inclusive=inclusive)
+        elif key == "posture_joints":
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                raise ConfigError(f"{where}: expected a list of joint names, got "
+                                  f"{_short(value)}")
+            values[key] = tuple(value)
+        elif key in IK_TABLES:
+            table = value or {}
+            if not isinstance(table, dict):
+                raise ConfigError(f"{where}: expected a mapping of joint names to numbers, "
+                                  f"got {_short(value)}")
+            values[key] = {_string(j, where): _number(v, f"{where}.{j}", low=0.0,
+                                                      inclusive=False)
+                           for j, v in table.items()}
+        elif key == "joint_position_limits":
+            table = value or {}
+            if not isinstance(table, dict):
+                raise ConfigError(f"{where}: expected a mapping of joint names to "
+                                  f"[lower, upper], got {_short(value)}")
+            values[key] = {_string(j, where): _range(v, f"{where}.{j}")
+                           for j, v in table.items()}
+        else:  # orientation_tasks
+            values[key] = _orientation_tasks(value)
+    return IkSettings(**values)
+
+
+def _orientation_tasks(value: object) -> tuple[OrientationTask, ...]:
+    shape = "a list of {frame: NAME, gain: G, weight: W}"
+    if not isinstance(value, list):
+        raise ConfigError(f"ik.orientation_tasks: expected {shape}, got {_short(value)}")
+    tasks = []
+    for i, item in enumerate(value):
+        where = f"ik.orientation_tasks[{i}]"
+        if not isinstance(item, dict) or "frame" not in item or \
+                set(item) - {"frame", "gain", "weight"}:
+            raise ConfigError(f"{where}: expected {{frame: NAME, gain: G, weight: W}} (gain "
+                              f"and weight optional), got {_short(item)}")
+        fields = {"frame": _string(item["frame"], f"{where}.frame")}
+        for key in ("gain", "weight"):
+            if key in item:
+                fields[key] = _number(item[key], f"{where}.{key}", low=0.0)
+        tasks.append(OrientationTask(**fields))
+    return tuple(tasks)
+
+
+def _base_gains(value: object, base_type: str) -> tuple[tuple[float, float],
+                                                         tuple[float, float]]:
+    """``base_gains: {translation: [kp, kd], rotation: [kp, kd]}`` of the virtual base
+    joints (either key optional)."""
+    if base_type == "fixed":
+        raise ConfigError("base_gains: only a planar or floating base has base joints "
+                          "(base_type is fixed)")
+    if not isinstance(value, dict) or set(value) - {"translation", "rotation"}:
+        raise ConfigError("base_gains: expected {translation: [kp, kd], rotation: [kp, kd]}, "
+                          f"got {_short(value)}")
+    default = Embodiment.__dataclass_fields__["base_gains"].default
+    return (_gain_pair(value["translation"], "base_gains.translation")
+            if "translation" in value else default[0],
+            _gain_pair(value["rotation"], "base_gains.rotation")
+            if "rotation" in value else default[1])
+
+
+def _short(value: object, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _string(value: object, where: str) -> str:
+    if not isinstance(value, str):
+        raise ConfigError(f"{where}: expected a string, got {_short(value)}")
+    return value
+
+
+def _number(value: object, where: str, low: float | None = None,
+            inclusive: bool = True) -> float:
+    """A finite number (not a boolean), at least (or above) ``low``."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or \
+            not math.isfinite(value):
+        raise ConfigError(f"{where}: expected a finite number, got {_short(value)}")
+    if low is not None and (value < low or (value == low and not inclusive)):
+        bound = ">=" if inclusive else ">"
+        word = ("non-negative " if inclusive else "positive ") if low == 0 else ""
+        raise ConfigError(f"{where}: must be {word}({bound} {low:g}), got {value!r}")
+    return float(value)
+
+
+def _range(value: object, where: str) -> tuple[float, float]:
+    if not isinstance(value, list | tuple) or len(value) != 2:
+        raise ConfigError(f"{where}: expected [lower, upper], got {_short(value)}")
+    low, high = (_number(v, where) for v in value)
+    if low > high:
+        raise ConfigError(f"{where}: lower {low} is above upper {high}")
+    return low, high
 
 
 def _mapping(raw: dict, key: str) -> dict:
     value = raw.get(key, {}) or {}
     if not isinstance(value, dict):
-        raise ConfigError(f"{key}: expected a mapping, got {value!r}")
+        raise ConfigError(f"{key}: expected a mapping, got {_short(value)}")
     return dict(value)
 
 
 def _gain_pair(value: object, where: str) -> tuple[float, float]:
     if (not isinstance(value, list | tuple) or len(value) != 2
-            or not all(isinstance(v, int | float) and v >= 0 for v in value)):
+            or not all(isinstance(v, int | float) and not isinstance(v, bool)
+                       and math.isfinite(v) and v >= 0 for v in value)):
         raise ConfigError(f"{where}: expected [kp, kd] (two non-negative numbers), got "
-                          f"{value!r}")
+                          f"{_short(value)}")
     return float(value[0]), float(value[1])
 
 
@@ -171,10 +400,12 @@ def _pose(value: object, where: str) -> RigidTransform:
         return RigidTransform()
     if not isinstance(value, dict) or set(value) - {"xyz", "rpy_deg"}:
         raise ConfigError(f"{where}: expected {{xyz: [x, y, z], rpy_deg: [r, p, y]}}, got "
-                          f"{value!r}")
+                          f"{_short(value)}")
     xyz = value.get("xyz", [0.0, 0.0, 0.0])
     rpy = value.get("rpy_deg", [0.0, 0.0, 0.0])
     for name, v in (("xyz", xyz), ("rpy_deg", rpy)):
         if not isinstance(v, list) or len(v) != 3:
-            raise ConfigError(f"{where}.{name}: expected three numbers, got {v!r}")
+            raise ConfigError(f"{where}.{name}: expected three numbers, got {_short(v)}")
+        for i, x in enumerate(v):
+            _number(x, f"{where}.{name}[{i}]")
     return RigidTransform(RollPitchYaw(np.radians(rpy)), np.asarray(xyz, dtype=float))

@@ -5,7 +5,8 @@ A checkpoint is a ``torch.save``d dict written atomically (a reader never sees h
     {"format": "legato_drake.checkpoint", "version": 1, "config": {...LearningConfig...},
      "stats": {key: {"mean": [...], "std": [...]}}, "step": int, "best_valid": float,
      "model": state_dict, "optimizer": state_dict | None, "train_seeds": [int, ...],
-     "data": str (the dataset it was trained on)}
+     "data": str (the dataset it was trained on),
+     "selection": {"seeds": [int, ...], ...} (only in a checkpoint chosen by rollouts)}
 """
 
 from __future__ import annotations
@@ -42,6 +43,14 @@ class Checkpoint:
     optimizer: dict | None = None
     train_seeds: list[int] = field(default_factory=list)
     data: str = ""
+    selection: dict = field(default_factory=dict)
+    """How the checkpoint was chosen by rollouts (``legato-drake select``): its validation
+    scene ``seeds`` (which evaluation must not reuse), the candidates and their successes."""
+
+    @property
+    def used_seeds(self) -> list[int]:
+        """Scene seeds this checkpoint has seen: its training demos' and its selection's."""
+        return sorted({*self.train_seeds, *self.selection.get("seeds", [])})
 
 
 def save_checkpoint(path: str | Path, ckpt: Checkpoint,
@@ -54,6 +63,7 @@ def save_checkpoint(path: str | Path, ckpt: Checkpoint,
         "model": {k: v.detach().cpu() for k, v in ckpt.policy.state_dict().items()},
         "optimizer": optimizer.state_dict() if optimizer is not None else ckpt.optimizer,
         "train_seeds": [int(s) for s in ckpt.train_seeds], "data": str(ckpt.data),
+        "selection": ckpt.selection,
     }
     buffer = io.BytesIO()
     torch.save(payload, buffer)
@@ -81,4 +91,4 @@ def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
     policy.eval()
     return Checkpoint(config, stats, policy, payload["step"], payload["best_valid"],
                       payload["optimizer"], list(payload.get("train_seeds", [])),
-                      payload.get("data", ""))
+                      payload.get("data", ""), payload.get("selection", {}))

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from pydrake.common.yaml import yaml_dump, yaml_load
 
+from legato_drake.data.layout import HISTORY, HISTORY_KEYS
 from legato_drake.errors import ConfigError
 
 ALGOS = ("legato", "bc_rnn")
@@ -39,6 +40,19 @@ class LearningConfig:
     privileged state features ``state_keys`` + pose-delta history (fast, for CPU)."""
     state_keys: list[str] = field(default_factory=lambda: ["object_in_tcp", "fingers"])
     """Privileged observations of the ``state`` mode (``STATE_KEYS``)."""
+    history: int = 2
+    """Pose-delta history steps the network sees (0, 1 or 2; datasets hold 2, oldest first).
+    The paper feeds 2. In our measurements the history is a shortcut that breaks the closed
+    loop (the copycat problem: in the data a stop shows in the history a step after it
+    happens, so the history predicts the release; at rollout the policy's own history never
+    shows it), so the small configs use 0. L_invar reads the demonstrated history from the
+    dataset whatever this is."""
+    history_noise: float = 0.0
+    """Training only: Gaussian noise (in normalised units) added to the history inputs, a
+    remedy for the copycat effect when ``history`` > 0."""
+    history_dropout: float = 0.0
+    """Training only: probability that a sequence's history inputs are zeroed (their
+    normalised mean), a remedy for the copycat effect when ``history`` > 0."""
     encoder: str = "resnet18"
     """Image trunk: ``resnet18`` (the paper's, not pretrained, 1 channel) or ``small``."""
     encoder_channels: list[int] = field(default_factory=lambda: [16, 32, 32])
@@ -81,6 +95,9 @@ class LearningConfig:
     valid_batches: int = 8
     checkpoint_every: int = 200
     """Steps between ``last.pt`` writes (also written at the end)."""
+    snapshot_every: int = 0
+    """Steps between kept snapshots ``step_<N>.pt`` (0: none), the candidates that
+    ``legato-drake select`` rolls out on validation scene seeds."""
     seed: int = 0
     num_workers: int = 0
     """DataLoader worker processes."""
@@ -122,18 +139,33 @@ class LearningConfig:
                      "invariant_weight"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
                 raise bad(name, f"must be a non-negative number, got {getattr(self, name)}")
-        for name in ("num_workers", "seed", "cpu_threads"):
+        if self.history not in range(HISTORY + 1):
+            raise bad("history", f"must be 0, 1 or {HISTORY} (pose-delta steps), got "
+                                 f"{self.history!r}")
+        if not (math.isfinite(self.history_noise) and self.history_noise >= 0):
+            raise bad("history_noise", f"must be a non-negative number, got "
+                                       f"{self.history_noise}")
+        if not (math.isfinite(self.history_dropout) and 0 <= self.history_dropout <= 1):
+            raise bad("history_dropout", f"must be in [0, 1], got {self.history_dropout}")
+        for name in ("num_workers", "seed", "cpu_threads", "snapshot_every"):
             if getattr(self, name) < 0:
                 raise bad(name, f"must be a non-negative integer, got {getattr(self, name)}")
         return self
 
     @property
     def obs_keys(self) -> tuple[str, ...]:
-        """The dataset observations the policy reads, in a fixed order."""
-        history = ("delta_positions", "delta_eulers")
+        """The dataset observations the network reads, in a fixed order (the pose-delta
+        history only with ``history`` > 0)."""
+        history = HISTORY_KEYS if self.history > 0 else ()
         if self.obs_mode == "image":
             return ("left_gray", "right_gray", *history)
         return (*history, *self.state_keys)
+
+    @property
+    def dataset_keys(self) -> tuple[str, ...]:
+        """The observations training reads: the network's, plus the demonstrated pose-delta
+        history that L_invar needs (appendix A) even when the network does not see it."""
+        return (*self.obs_keys, *(k for k in HISTORY_KEYS if k not in self.obs_keys))
 
     def to_dict(self) -> dict:
         """A plain dict (for checkpoints and YAML)."""

@@ -31,6 +31,7 @@ import torch.nn.functional as F  # noqa: N812 - the usual torch name
 from torch import distributions as D  # noqa: N812
 from torch import nn
 
+from legato_drake.data.layout import HISTORY, HISTORY_KEYS
 from legato_drake.invariants import (
     gmm_mean_of_most_likely_mode,
     history_from_observations,
@@ -79,13 +80,18 @@ class RecurrentGMMPolicy(nn.Module):
         missing = [k for k in (*self.low_dim_keys, "actions") if k not in stats]
         if missing:
             raise ValueError(f"normalisation statistics lack {', '.join(missing)}")
+        # The history keys hold HISTORY steps of 3 values, oldest first; the network sees
+        # the last ``config.history`` of them.
+        self.history_columns = slice(3 * (HISTORY - config.history), 3 * HISTORY)
         self.normalizers = nn.ModuleDict({
-            k: Normalizer(stats[k]["mean"], stats[k]["std"])
+            k: Normalizer(*(np.asarray(stats[k][s])[self._columns(k)]
+                            for s in ("mean", "std")))
             for k in (*self.low_dim_keys, "actions")})
         self.encoders = nn.ModuleDict({
             k: ImageEncoder(config.encoder, config.keypoints, config.feature_dim,
                             config.encoder_channels) for k in self.image_keys})
-        in_dim = sum(len(stats[k]["mean"]) for k in self.low_dim_keys)
+        in_dim = sum(len(np.asarray(stats[k]["mean"])[self._columns(k)])
+                     for k in self.low_dim_keys)
         in_dim += config.feature_dim * len(self.image_keys)
         self.rnn = nn.LSTM(in_dim, config.rnn_hidden, config.rnn_layers, batch_first=True)
         layers: list[nn.Module] = []
@@ -101,6 +107,23 @@ class RecurrentGMMPolicy(nn.Module):
         self.scales_head = nn.Linear(width, K * self.action_dims)
         self.grasp_head = nn.Linear(width, 2) if config.algo == "legato" else None
 
+    def _columns(self, key: str) -> slice:
+        """The columns of low-dim observation ``key`` the network reads."""
+        return self.history_columns if key in HISTORY_KEYS else slice(None)
+
+    def _low_dim(self, key: str, value: torch.Tensor) -> torch.Tensor:
+        """A normalised low-dim input; in training, the history perturbed as configured
+        (``history_noise``, ``history_dropout``)."""
+        x = self.normalizers[key](value[..., self._columns(key)])
+        cfg = self.config
+        if self.training and key in HISTORY_KEYS:
+            if cfg.history_noise > 0:
+                x = x + cfg.history_noise * torch.randn_like(x)
+            if cfg.history_dropout > 0:
+                keep = torch.rand(x.shape[0], *(1,) * (x.dim() - 1), device=x.device)
+                x = x * (keep >= cfg.history_dropout).to(x.dtype)
+        return x
+
     def features(self, obs: Mapping[str, torch.Tensor]) -> torch.Tensor:
         """Raw observations (B, T, ...) -> the LSTM's input (B, T, F)."""
         parts = []
@@ -109,7 +132,7 @@ class RecurrentGMMPolicy(nn.Module):
             B, T = image.shape[:2]
             parts.append(self.encoders[key](image.reshape(B * T, *image.shape[2:]))
                          .reshape(B, T, -1))
-        parts += [self.normalizers[k](obs[k]) for k in self.low_dim_keys]
+        parts += [self._low_dim(k, obs[k]) for k in self.low_dim_keys]
         return torch.cat(parts, -1)
 
     def forward(self, obs: Mapping[str, torch.Tensor], hidden: Hidden | None = None

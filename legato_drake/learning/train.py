@@ -8,7 +8,9 @@
   appended at every checkpoint (a resumed run first cuts it back to its checkpoint's step);
 * ``last.pt`` (every ``checkpoint_every`` steps and at the end) and ``best.pt`` (lowest
   validation total loss), each with the config, the normalisation statistics, the step and
-  the optimizer state; TensorBoard events too if ``tensorboard`` happens to be installed.
+  the optimizer state; with ``snapshot_every``, ``step_<N>.pt`` snapshots (no optimizer
+  state), the candidates of ``legato-drake select``; TensorBoard events too if
+  ``tensorboard`` happens to be installed.
 
 The batch of step s is drawn by ``numpy.random.default_rng([seed, s])``, so a run resumed from
 ``last.pt`` sees exactly the batches an uninterrupted run would have seen (and, on CPU, gives
@@ -39,6 +41,7 @@ from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint, save_c
 from legato_drake.learning.config import LearningConfig, config_from_dict, save_config
 from legato_drake.learning.normalization import OBS_MIN_STD, compute_stats
 from legato_drake.learning.policies import RecurrentGMMPolicy
+from legato_drake.progress import progress_bar
 
 log = logging.getLogger(__name__)
 
@@ -65,6 +68,11 @@ class StepBatchSampler(Sampler[list[int]]):
             yield rng.choice(self.n, self.batch_size, replace=self.n < self.batch_size).tolist()
 
 
+def snapshot_path(out: Path, step: int) -> Path:
+    """Where a run keeps its snapshot of ``step`` (``LearningConfig.snapshot_every``)."""
+    return out / f"step_{step:06d}.pt"
+
+
 def seed_everything(seed: int) -> None:
     """Seeds Python, numpy and torch (parameter initialisation)."""
     random.seed(seed)
@@ -82,7 +90,7 @@ def check_data(path: Path, config: LearningConfig) -> list[int]:
         if not names:
             raise DatasetError(f"{path} holds no demos")
         available = available_observations(list(f["data"][names[0]]["obs"]))
-        missing = [k for k in config.obs_keys if k not in available]
+        missing = [k for k in config.dataset_keys if k not in available]
         if missing:
             hint = (" (a state-only dataset: collect with the camera, or use obs_mode: state)"
                     if any(k.endswith("_gray") for k in missing) else "")
@@ -96,7 +104,7 @@ def dataset_stats(path: Path, config: LearningConfig) -> dict[str, dict[str, np.
     """Normalisation statistics of the low-dim observations and actions of the train split."""
     from legato_drake.data.layout import mask_names
 
-    keys = [k for k in config.obs_keys if not k.endswith("_gray")]
+    keys = [k for k in config.dataset_keys if not k.endswith("_gray")]
     with h5py.File(path, "r") as f:
         names = mask_names(f, "train") or sorted_demos(f["data"])
         stats = {k: compute_stats([read_observation(f["data"][n]["obs"], k) for n in names],
@@ -165,8 +173,15 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
 
     ``steps`` overrides ``config.steps``; ``resume`` continues from ``out/last.pt`` (its config
     wins over ``config``, except for ``steps``). Returns the final checkpoint."""
-    from tqdm import tqdm
-
+    # Bad input fails before any work; a new run never overwrites another.
+    if steps is not None and (isinstance(steps, bool) or steps < 1):
+        raise ConfigError(f"--steps must be at least 1, got {steps!r}")
+    if Path(out).exists() and not Path(out).is_dir():
+        raise ConfigError(f"--out {out}: is an existing file, not a run folder")
+    if not resume and any((Path(out) / n).exists() for n in ("last.pt", "best.pt", "log.csv")):
+        raise ConfigError(f"--out {out} already holds a training run (last.pt, best.pt or "
+                          "log.csv): pass --resume to continue it, --overwrite to replace "
+                          "it, or choose another --out")
     data, out = Path(data), Path(out)
     if device.startswith("cuda") and not torch.cuda.is_available():
         raise ConfigError("--device cuda: no CUDA device is available")
@@ -185,10 +200,10 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
     if device == "cpu" and config.cpu_threads > 0:
         torch.set_num_threads(config.cpu_threads)
     seed_everything(config.seed)
-    dataset = DemoSequenceDataset(data, config.obs_keys, config.seq_length, "train",
+    dataset = DemoSequenceDataset(data, config.dataset_keys, config.seq_length, "train",
                                   cache_images=config.cache_images)
     try:
-        valid = DemoSequenceDataset(data, config.obs_keys, config.seq_length, "valid",
+        valid = DemoSequenceDataset(data, config.dataset_keys, config.seq_length, "valid",
                                     cache_images=config.cache_images)
     except DatasetError:
         valid = None  # too few demos for a validation split
@@ -215,8 +230,8 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
                                total_steps)
     loader = DataLoader(dataset, batch_sampler=sampler, num_workers=config.num_workers,
                         persistent_workers=False)
-    bar = tqdm(total=total_steps, initial=ckpt.step, desc=f"train {config.name}",
-               unit="step", disable=None if progress is None else not progress)
+    bar = progress_bar(progress=progress, total=total_steps, initial=ckpt.step,
+                       desc=f"train {config.name}", unit="step")
     policy.train()
     for batch in loader:
         losses = policy.losses(_to_device(batch, device))
@@ -245,6 +260,8 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
                     board.add_scalar(k, v, ckpt.step)
         bar.update(1)
         bar.set_postfix(loss=f"{row['total']:.3f}")
+        if config.snapshot_every and ckpt.step % config.snapshot_every == 0:
+            save_checkpoint(snapshot_path(out, ckpt.step), ckpt)
         if ckpt.step % config.checkpoint_every == 0 or ckpt.step == total_steps:
             _append_log(log_path, rows)
             rows.clear()

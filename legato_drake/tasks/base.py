@@ -36,13 +36,14 @@ class Waypoint:
     """One target of a scripted demonstration: move the TCP there, then hold.
 
     Plans are imitated, so every change of grasp must follow something a policy observes:
-    release on arrival (the motion ending), not after a hold in an unchanging scene; a
-    policy cannot tell the held steps apart and, taking the most likely grasp, never lets go.
-    A hold while the fingers move (the grasp) is fine: the fingers are observed. The move
-    that ends in a release is ``stop``-profiled (constant speed to the end): then stopping
-    and releasing happen together in the data, and a policy that stops near the goal
-    releases, where a minimum-jerk ending's creeping last steps (all "keep holding") would
-    teach it to stop and hold."""
+    grasp and release on arrival (the motion ending), not after a hold in an unchanging
+    scene; a policy cannot tell the held steps apart and, taking the most likely grasp, never
+    lets go. A hold while the fingers move is fine: the fingers are observed. The moves that
+    end in a grasp or a release are ``stop``-profiled (constant speed to the end): then
+    stopping and closing (or opening) happen together in the data, and a policy that stops
+    near the goal acts, where a minimum-jerk ending's creeping last steps (all "keep
+    moving") would teach it to hover. We measured both: lids placed but never released, and
+    grippers hovering at the handle, never closing."""
 
     pose: RigidTransform
     """Target pose of the gripper TCP in the world."""
@@ -54,7 +55,7 @@ class Waypoint:
     """Seconds to stay at the waypoint after reaching it."""
     profile: str = "min_jerk"
     """Time scaling of the move: ``min_jerk`` (smooth start and stop) or ``stop`` (constant
-    speed, stopping at once: the move before a release)."""
+    speed, stopping at once: the move before a grasp or a release)."""
 
 
 class Task(abc.ABC):

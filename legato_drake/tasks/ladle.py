@@ -175,7 +175,7 @@ class LadleTask(Task):
         speed = uniform(rng, 0.12, 0.18)
         return [
             Waypoint(RigidTransform(R_grasp, p_pregrasp), grasp=False, speed=speed),
-            Waypoint(X_WG, grasp=False, speed=0.06),
+            Waypoint(X_WG, grasp=False, speed=0.06, profile="stop"),
             Waypoint(X_WG, grasp=True, hold=0.9),
             Waypoint(RigidTransform(R_grasp, p_lift), grasp=True, speed=0.05),
             Waypoint(RigidTransform(R_grasp, p_out), grasp=True, speed=0.08),

@@ -126,7 +126,7 @@ class LidTask(Task):
         speed = uniform(rng, 0.12, 0.18)
         return [
             Waypoint(RigidTransform(R_grasp, p_pregrasp), grasp=False, speed=speed),
-            Waypoint(RigidTransform(R_grasp, p_grasp), grasp=False, speed=0.06),
+            Waypoint(RigidTransform(R_grasp, p_grasp), grasp=False, speed=0.06, profile="stop"),
             Waypoint(RigidTransform(R_grasp, p_grasp), grasp=True, hold=0.9),
             Waypoint(RigidTransform(R_grasp, p_lift), grasp=True, speed=0.08),
             Waypoint(RigidTransform(R_grasp, p_above), grasp=True, speed=speed),

@@ -1,0 +1,39 @@
+"""The trained policies shipped in checkpoints/: they load, were chosen without the evaluation
+seeds, and drive a real closed-loop rollout."""
+
+from __future__ import annotations
+
+import pytest
+
+from legato_drake.episode import run_episode
+from legato_drake.evaluation import EVAL_SEED0
+from legato_drake.learning.checkpoint import load_checkpoint
+from legato_drake.models import CHECKPOINTS_DIR, shipped_checkpoint
+from legato_drake.scenario import Scenario
+
+SHIPPED = sorted(CHECKPOINTS_DIR.glob("*.pt"))
+MAX_BYTES = 5 * 2**20
+
+
+def test_the_lid_policy_is_shipped():
+    assert shipped_checkpoint("lid") in SHIPPED
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=[p.stem for p in SHIPPED])
+def test_shipped_checkpoint_is_small_and_never_saw_the_evaluation_seeds(path):
+    assert path.stat().st_size < MAX_BYTES
+    ckpt = load_checkpoint(path)
+    assert ckpt.train_seeds and ckpt.selection["seeds"]  # chosen by validation rollouts
+    assert max(ckpt.used_seeds) < EVAL_SEED0
+    assert ckpt.optimizer is None  # a deployable policy, not a training state
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=[p.stem for p in SHIPPED])
+def test_shipped_checkpoint_runs_a_rollout(path):
+    task = path.stem.rsplit("_", 1)[-1]
+    scenario = Scenario(embodiment="panda", task=task, controller="policy",
+                        checkpoint=str(path), seed=EVAL_SEED0, duration=2.0)
+    scenario.camera.enabled = False
+    result = run_episode(scenario.validate())
+    assert result.episode_time == pytest.approx(2.0, abs=0.01)
+    assert result.tracking.rms_mm < 10.0  # the Panda follows the policy's targets
