@@ -11,7 +11,7 @@ $(STAMP): pyproject.toml scripts/setup.sh requirements/constraints.txt
 
 setup: $(STAMP)
 
-demo: $(STAMP)  ## set up, then run the scripted lid demo on every embodiment
+demo: $(STAMP)  ## set up, then run the shipped LEGATO lid policy on every embodiment
 	$(BIN)/legato-drake demo
 
 test: $(STAMP)  ## set up, then run the whole test suite (ruff, pytest, the notebooks)

@@ -136,8 +136,9 @@ class ScriptedDemonstrator(LeafSystem):
 
     With ``noise`` (DART-style data collection), the executed commanded pose at step k is the
     plan's pose ``X_k`` moved by a small drifting offset (``ExpertNoise``, seeded by
-    ``[seed, 2]``, in proportion to the plan's speed), while ``label`` holds what the expert would command from where it is:
-    the delta from the executed pose of step k - 1 back to ``X_k`` (with the plan's grasp).
+    ``[seed, 2]``, in proportion to the plan's speed), while ``label`` holds what the expert
+    would command from where it is: the delta from the executed pose of step k - 1 back to
+    ``X_k`` (with the plan's grasp).
     A dataset recorded from ``label`` so shows the corrections an expert makes off its nominal
     path. Once the script is played out the offset is removed in one step and the expert
     holds still.
