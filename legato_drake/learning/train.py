@@ -20,6 +20,7 @@ the same losses).
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import logging
 import math
@@ -261,7 +262,8 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
         bar.update(1)
         bar.set_postfix(loss=f"{row['total']:.3f}")
         if config.snapshot_every and ckpt.step % config.snapshot_every == 0:
-            save_checkpoint(snapshot_path(out, ckpt.step), ckpt)
+            save_checkpoint(snapshot_path(out, ckpt.step),
+                            dataclasses.replace(ckpt, optimizer=None))
         if ckpt.step % config.checkpoint_every == 0 or ckpt.step == total_steps:
             _append_log(log_path, rows)
             rows.clear()
