@@ -14,8 +14,8 @@ import statistics
 
 from legato_drake.embodiments import EMBODIMENTS
 from legato_drake.episode import run_episode
-from legato_drake.report import format_table
 from legato_drake.scenario import Scenario
+from legato_drake.summary import format_table
 
 # Reference real-time factors: (physics + IK + PD, + stereo cameras at 10 Hz).
 REFERENCE = {"abstract": (1.11, 0.42), "panda": (1.94, 0.63), "spot": (0.90, 0.48),

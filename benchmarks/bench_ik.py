@@ -26,8 +26,8 @@ from pydrake.systems.framework import DiagramBuilder
 from legato_drake.diagram import build_plant
 from legato_drake.embodiments import EMBODIMENTS
 from legato_drake.poses import rotation_log
-from legato_drake.report import format_table
 from legato_drake.scenario import Scenario
+from legato_drake.summary import format_table
 from legato_drake.systems.whole_body_ik import WholeBodyIK
 
 # The reference implementation's eSNS IK (numpy), median per solve (SPEC §10).

@@ -25,8 +25,8 @@ from legato_drake.diagram import build_plant, object_bodies
 from legato_drake.learning.checkpoint import Checkpoint
 from legato_drake.learning.config import load_config
 from legato_drake.learning.policies import RecurrentGMMPolicy
-from legato_drake.report import format_table
 from legato_drake.scenario import Scenario
+from legato_drake.summary import format_table
 from legato_drake.systems.episode_recorder import EpisodeRecorder
 from legato_drake.systems.policy_controller import PolicyController
 

@@ -22,7 +22,7 @@ import torch
 from legato_drake.data.derived import observation_sizes
 from legato_drake.learning.config import load_config
 from legato_drake.learning.policies import IMAGE_KEYS, RecurrentGMMPolicy
-from legato_drake.report import format_table
+from legato_drake.summary import format_table
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 DIMS = observation_sizes(3)  # the lid scene's stove, pot and lid

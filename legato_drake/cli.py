@@ -88,15 +88,6 @@ def _seeds(value: str) -> list[int]:
             "non-negative seeds") from None
 
 
-def _demo_episode(job: tuple) -> dict:
-    """Runs one demo episode (in a worker process) and returns its result as a dict."""
-    from legato_drake.episode import run_episode
-
-    scenario, html = job
-    result = run_episode(scenario, html=html)
-    return {**result.to_dict(), "html": str(html) if html else None}
-
-
 def _demo_checkpoint(args: argparse.Namespace, base, controller: str, task: str) -> str:
     """The checkpoint ``demo`` runs for ``task``: ``--checkpoint``, else the scenario's, else
     the shipped policy of the task ("" for the other controllers)."""
@@ -130,12 +121,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
     """Runs a controller (by default the shipped LEGATO policy of the task; ``--controller
     scripted``: the scripted expert) per embodiment, task and seed; writes replays; prints a
     table (one row per episode, or per embodiment and task with 95 % Wilson intervals)."""
+    from legato_drake import summary
     from legato_drake.embodiments import EMBODIMENTS
     from legato_drake.files import atomic_write_text
-    from legato_drake.parallel import parallel_map
-    from legato_drake.report import format_table
+    from legato_drake.pipelines import episodes
     from legato_drake.scenario import Scenario, load_scenario
-    from legato_drake.stats import wilson_interval
     from legato_drake.tasks import TASKS
 
     if args.embodiment_file and args.embodiment is not None:
@@ -168,38 +158,20 @@ def cmd_demo(args: argparse.Namespace) -> int:
                 scenario = base.replace(embodiment=embodiment, task=task, seed=seed,
                                         controller=controller, checkpoint=checkpoints[task])
                 html = None if args.no_replay else out / f"{embodiment}-{task}-seed{seed}.html"
-                jobs.append((scenario, html))
-    results = parallel_map(_demo_episode, jobs, args.workers, desc="demo")
+                jobs.append(episodes.EpisodeJob(scenario, html))
+    results = episodes.run_episodes(jobs, args.workers, desc="demo")
     for r in results:
         if r["html"]:
             log.info("wrote %s", r["html"])
 
+    def label(result: dict) -> str:
+        return _controller_label(result, checkpoints)
+
     if len(seeds) == 1:
-        rows = [[r["embodiment"], r["task"], _controller_label(r, checkpoints), r["seed"],
-                 r["success"], r["reason"] or "-", r["tracking"]["rms_mm"],
-                 r["tracking"]["rms_deg"], r["sim_time"], r["wall_time"],
-                 r["real_time_factor"]] for r in results]
-        print(format_table(["embodiment", "task", "controller", "seed", "success", "why not",
-                            "rms mm", "rms deg", "sim s", "wall s", "x real time"], rows))
+        print(summary.format_table(summary.EPISODE_HEADERS,
+                                   summary.episode_rows(results, label)))
     else:
-        rows = []
-        for embodiment in embodiments:
-            for task in tasks:
-                group = [r for r in results
-                         if r["embodiment"] == embodiment and r["task"] == task]
-                k = sum(r["success"] for r in group)
-                low, high = wilson_interval(k, len(group))
-                rows.append([embodiment, task, _controller_label(group[0], checkpoints),
-                             f"{k}/{len(group)}",
-                             f"{100 * low:.0f}-{100 * high:.0f}",
-                             max(r["tracking"]["rms_mm"] for r in group),
-                             max(r["tracking"]["rms_deg"] for r in group),
-                             max(r["tracking"]["max_mm"] for r in group),
-                             sum(r["sim_time"] for r in group) /
-                             sum(r["wall_time"] for r in group)])
-        print(format_table(["embodiment", "task", "controller", "success", "95% CI %",
-                            "worst rms mm",
-                            "worst rms deg", "worst max mm", "x real time"], rows))
+        print(summary.format_table(summary.DEMO_HEADERS, summary.demo_rows(results, label)))
         failures = [f"{r['embodiment']}/{r['task']}/seed {r['seed']}: {r['reason']}"
                     for r in results if not r["success"]]
         for line in failures:
@@ -214,25 +186,26 @@ def cmd_demo(args: argparse.Namespace) -> int:
 def cmd_retarget_benchmark(args: argparse.Namespace) -> int:
     """Replays Abstract demonstrations open-loop on every embodiment and prints a table."""
     from legato_drake.embodiments import EMBODIMENTS
-    from legato_drake.report import format_table
-    from legato_drake.retarget import SUMMARY_HEADERS, run_benchmark, summarize, write_results
+    from legato_drake.pipelines.retarget import run_benchmark, write_results
+    from legato_drake.summary import RETARGET_HEADERS, format_table, retarget_rows
     from legato_drake.tasks import TASKS
 
     embodiments = _names(args.embodiments, EMBODIMENTS, "embodiment")
     tasks = _names(args.tasks, TASKS, "task")
     check_output_dir(Path(args.out), "--out")
     rows = run_benchmark(embodiments, tasks, args.seeds, args.workers)
-    print(format_table(SUMMARY_HEADERS, summarize(rows)))
+    print(format_table(RETARGET_HEADERS, retarget_rows(rows)))
     for path in write_results(rows, Path(args.out)):
         log.info("wrote %s", path)
     return EXIT_OK if all(r["success"] for r in rows) else EXIT_FAILED
 
 
 def cmd_collect(args: argparse.Namespace) -> int:
-    """Collects a demonstration dataset (``legato_drake.data.collect``) and prints a summary."""
-    from legato_drake.data.collect import collect, parts_dir
+    """Collects a demonstration dataset (``legato_drake.pipelines.collect``) and prints a
+    summary."""
     from legato_drake.embodiments import EMBODIMENTS
-    from legato_drake.report import format_table
+    from legato_drake.pipelines.collect import collect, parts_dir
+    from legato_drake.summary import format_table
     from legato_drake.tasks import TASKS
 
     _names(args.task, TASKS, "task")
@@ -313,8 +286,8 @@ def cmd_train(args: argparse.Namespace) -> int:
 def cmd_select(args: argparse.Namespace) -> int:
     """Chooses a run's checkpoint by rollouts on validation seeds; prints the candidates."""
     from legato_drake.embodiments import EMBODIMENTS
-    from legato_drake.report import format_table
-    from legato_drake.selection import select_checkpoint
+    from legato_drake.pipelines.selection import select_checkpoint
+    from legato_drake.summary import format_table
     from legato_drake.tasks import TASKS
 
     _names(args.task, TASKS, "task")
@@ -333,7 +306,7 @@ def cmd_select(args: argparse.Namespace) -> int:
 def _trial_seeds(args: argparse.Namespace) -> tuple[int, int]:
     """evaluate's (seed0, trials) from ``--seeds A-B`` (demo's spelling) or ``--seed0`` and
     ``--trials`` (defaults 10000 and 50)."""
-    from legato_drake.evaluation import EVAL_SEED0
+    from legato_drake.pipelines.evaluate import EVAL_SEED0
 
     if args.seeds is None:
         return (EVAL_SEED0 if args.seed0 is None else args.seed0,
@@ -351,16 +324,20 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     """Evaluates a checkpoint closed-loop (or, with --plot, combines results files into one
     plot); prints the success table with 95 % Wilson intervals."""
     from legato_drake.embodiments import EMBODIMENTS
-    from legato_drake.evaluation import (
-        SUMMARY_HEADERS,
+    from legato_drake.pipelines.evaluate import (
         combine,
         evaluate,
-        failure_counts,
         plot_success,
         results_path,
-        summarize,
+        trial_order,
     )
-    from legato_drake.report import format_table
+    from legato_drake.summary import (
+        FAILURE_HEADERS,
+        TRIAL_HEADERS,
+        failure_rows,
+        format_table,
+        trial_rows,
+    )
     from legato_drake.tasks import TASKS
 
     out = check_output_dir(Path(args.out), "--out")
@@ -380,9 +357,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         log.info("wrote %s", results_path(out, doc["method"]))
     else:
         raise argparse.ArgumentTypeError("evaluate needs --checkpoint (or --plot FILES)")
-    print(format_table(SUMMARY_HEADERS, summarize(trials)))
-    print(format_table(["method", "embodiment", "task", "failures by condition"],
-                       failure_counts(trials)))
+    ordered = sorted(trials, key=trial_order)
+    print(format_table(TRIAL_HEADERS, trial_rows(ordered)))
+    print(format_table(FAILURE_HEADERS, failure_rows(ordered)))
     log.info("wrote %s", png)
     # A failed trial is a result; a trial that raised did not run as it should.
     errors = [t for t in trials if str(t.get("reason", "")).startswith("error:")]

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from pydrake.math import RigidTransform
 
+from legato_drake import dimensions
+
 PHYSICS_DT = 0.002
 """Plant time step (s); the joint PD runs inside the plant at this rate (500 Hz)."""
 
@@ -40,5 +42,6 @@ GRIPPER_MODEL = "package://legato_drake/legato_gripper.sdf"
 GRIPPER_TCP_FRAME = "gripper_tcp"
 GRIPPER_BASE_BODY = "gripper_base"
 GRIPPER_FINGER_JOINTS = ("left_finger_joint", "right_finger_joint")
-GRIPPER_OPEN = 0.052
-"""Finger joint position (m from the centre plane) when fully open: pad gap 0.104 m."""
+GRIPPER_OPEN = dimensions.GRIPPER_OPEN
+"""Finger joint position (m from the centre plane) when fully open: pad gap 0.104 m (the
+model's finger limit, ``dimensions.GRIPPER_OPEN``)."""

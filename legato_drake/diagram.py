@@ -38,8 +38,9 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer
 
 from legato_drake import conventions
-from legato_drake.embodiments import RobotHandles, add_embodiment, resolve_embodiment
+from legato_drake.embodiments import add_embodiment, resolve_embodiment
 from legato_drake.models import add_package
+from legato_drake.robot_types import RobotHandles
 from legato_drake.scenario import Scenario
 from legato_drake.systems.episode_recorder import EpisodeRecorder
 from legato_drake.systems.gravity_compensation import GravityCompensation
@@ -52,6 +53,7 @@ from legato_drake.systems.scripted_demonstrator import (
     Script,
     ScriptedDemonstrator,
 )
+from legato_drake.systems.spot_legs import add_leg_follower
 from legato_drake.systems.stereo_camera import RENDERER_NAME, StereoCamera, StereoRig
 from legato_drake.systems.success_monitor import SuccessMonitor
 from legato_drake.systems.target_integrator import GripperTargetIntegrator
@@ -188,8 +190,8 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
     builder.Connect(integrator.GetOutputPort("V_WG_target"),
                     ik.get_desired_velocity_input_port())
     desired = ik.GetOutputPort("desired_state")
-    if robot.embodiment.add_followers is not None:
-        joints, followers = robot.embodiment.add_followers(builder, plant, robot, desired)
+    if robot.embodiment.leg_follower is not None:  # e.g. Spot's legs follow the body
+        joints, followers = add_leg_follower(builder, plant, robot, desired)
         mux = builder.AddNamedSystem("joint_target_mux", JointTargetMux(
             robot.actuated_joints, [robot.controlled_joints, joints]))
         builder.Connect(desired, mux.get_input_port(0))

@@ -63,9 +63,8 @@ def initialize(built: LegatoDiagram, simulator: Simulator) -> None:
 
 
 def run_episode(scenario: Scenario, html: str | Path | None = None) -> EpisodeResult:
-    """Builds and simulates one episode of ``scenario``; with ``html``, writes a Meshcat
-    replay there (atomically)."""
-    scenario = scenario.validate()
+    """Builds and simulates one episode of ``scenario`` (``build_diagram`` validates it);
+    with ``html``, writes a Meshcat replay there (atomically)."""
     meshcat = make_meshcat() if html is not None or scenario.recording.meshcat else None
     built = build_diagram(scenario, meshcat)
     _, result = simulate(built)

@@ -23,6 +23,7 @@ from pathlib import Path
 import yaml
 from pydrake.common.yaml import yaml_load, yaml_load_typed
 
+from legato_drake.data.pose_stream import check_pose_stream_file
 from legato_drake.errors import ConfigError, unknown_name, yaml_problem
 from legato_drake.files import read_text_file
 
@@ -110,7 +111,10 @@ class Scenario:
     recording: RecordingConfig = field(default_factory=RecordingConfig)
 
     def validate(self, where: str = "") -> "Scenario":
-        """Checks every field against what is allowed; raises ConfigError naming the field."""
+        """Checks every field against what is allowed; raises ConfigError naming the field.
+        The pose stream and the checkpoint are only checked to exist (and the stream to
+        have a known suffix): they are read where the diagram is built, once. An embodiment
+        file is read for its robot's name, which becomes ``embodiment``."""
         from legato_drake.embodiments import EMBODIMENTS
         from legato_drake.tasks import TASKS
 
@@ -134,10 +138,8 @@ class Scenario:
         if self.checkpoint and not Path(self.checkpoint).is_file():
             raise ConfigError(f"checkpoint{place}: file not found: {self.checkpoint}")
         if self.pose_stream:
-            from legato_drake.data.pose_stream import load_pose_stream
-
             try:
-                load_pose_stream(self.pose_stream)
+                check_pose_stream_file(self.pose_stream)
             except ConfigError as e:
                 raise ConfigError(f"pose_stream{place}: {e}") from None
         if not (math.isfinite(self.duration) and self.duration > 0):

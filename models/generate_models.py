@@ -1,6 +1,6 @@
 """Writes the primitive-geometry model files of this folder.
 
-Run: ``python models/generate_models.py``.
+Run: ``python models/generate_models.py`` (``--out DIR`` writes them elsewhere, e.g. to diff).
 
 The files it writes (``legato_gripper.sdf``, ``abstract.urdf``, ``panda.urdf``, ``spot.urdf``,
 ``google_robot.urdf``, ``gr1.urdf``, ``table.sdf``, ``stove.sdf``, ``pot.sdf``, ``lid.sdf``,
@@ -11,6 +11,10 @@ own mass), and every inertia is the exact composite of the solid primitives (com
 Drake's ``SpatialInertia`` helpers), so it is positive definite and physically valid by
 construction.
 
+The dimensions that the code also needs (the gripper's opening, Spot's leg geometry, the pot's
+height, the handles' widths, the case's interior ...) come from ``legato_drake/dimensions.py``,
+which the tasks, systems and embodiments read too: change them there and rerun this script.
+
 Shapes are tuples ``(kind, dims, xyz, rpy, role, colour, mass)``:
 kind is box (dims = sizes), cyl / cap (dims = radius, length along the shape's z), sph (radius);
 role is "both", "visual", "collision" or "none" (mass only); mass None means "by volume".
@@ -18,6 +22,7 @@ role is "both", "visual", "collision" or "none" (mass only); mass None means "by
 
 from __future__ import annotations
 
+import argparse
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +30,46 @@ from pathlib import Path
 import numpy as np
 from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.multibody.tree import SpatialInertia
+
+from legato_drake.dimensions import (
+    CASE_BASE,
+    CASE_INTERIOR,
+    CASE_WALL,
+    CASE_WALL_H,
+    CUP_BASE,
+    CUP_H,
+    CUP_HANDLE,
+    CUP_HANDLE_R,
+    CUP_HANDLE_Z,
+    CUP_R_IN,
+    CUP_R_OUT,
+    GR1_PELVIS_HEIGHT,
+    GRIPPER_OPEN,
+    GRIPPER_TCP_X,
+    LADLE_HANDLE,
+    LADLE_SCOOP,
+    LADLE_STICK,
+    LID_HANDLE_BAR,
+    LID_HANDLE_Z,
+    LID_RADIUS,
+    LID_THICKNESS,
+    POT_HEIGHT,
+    SHELF_BACK,
+    SHELF_BOARD,
+    SHELF_SIDE,
+    SHELF_SIZE,
+    SPOT_BODY_HALF_RANGE,
+    SPOT_HIP_X,
+    SPOT_HIP_X_LIMITS,
+    SPOT_HIP_Y,
+    SPOT_HIP_Y_LIMITS,
+    SPOT_KNEE,
+    SPOT_KNEE_LIMITS,
+    SPOT_LEG_SIGNS,
+    SPOT_LOWER_LEG,
+    SPOT_NOMINAL_BODY_POSE,
+    STOVE_SIZE,
+)
 
 HERE = Path(__file__).resolve().parent
 PI = math.pi
@@ -325,7 +370,6 @@ def urdf_transmission(joint: str, actuator: str) -> str:
 
 # ================================================================================ the gripper
 
-GRIPPER_OPEN = 0.052
 PAD_RADIUS = 0.004
 PAD_XS = (0.045, 0.065, 0.085)
 PAD_ZS = (-0.01, 0.01)
@@ -414,7 +458,7 @@ def gripper_sdf() -> str:
         + sdf_body(right, ' relative_to="gripper_base">0.07 0 0 0 0 0')
         + joint("left_finger_joint", "left_finger", "0 1 0")
         + joint("right_finger_joint", "right_finger", "0 -1 0")
-        + frame("gripper_tcp", "0.14 0 0 0 0 0")
+        + frame("gripper_tcp", f"{f(GRIPPER_TCP_X)} 0 0 0 0 0")
         + frame("left_camera_optical", f"0.02 0.032 0.0525 {CAMERA_RPY}")
         + frame("right_camera_optical", f"0.02 -0.032 0.0525 {CAMERA_RPY}")
         + '    <drake:collision_filter_group name="gripper_self">\n'
@@ -756,21 +800,20 @@ def cyl_along(axis: str, r: float, length: float, xyz=(0.0, 0.0, 0.0), **kw) -> 
 
 # -------------------------------------------------------------------------------- spot
 
-SPOT_LEGS = {"fl": (1.0, 1.0), "fr": (1.0, -1.0), "hl": (-1.0, 1.0), "hr": (-1.0, -1.0)}
-"""Leg name: (front +1 / hind -1, left +1 / right -1)."""
-SPOT_HIP_X = (0.29785, 0.055)
-SPOT_HIP_Y = 0.110945
-SPOT_KNEE = (0.025, -0.3205)
-SPOT_LOWER_LEG = 0.33
+# Leg geometry and limits: legato_drake/dimensions.py (the leg IK uses them too).
 SPOT_FOOT_RADIUS = 0.02
 SPOT_BODY_JOINTS = [
-    # name, kind, axis, lower, upper, effort: absolute world pose of the body frame
-    ("body_x", "prismatic", (1, 0, 0), -0.3, -0.1, 2000.0),
-    ("body_y", "prismatic", (0, 1, 0), -0.1, 0.1, 2000.0),
-    ("body_z", "prismatic", (0, 0, 1), 0.3, 0.5, 2000.0),
-    ("body_roll", "revolute", (1, 0, 0), -PI / 16, PI / 16, 500.0),
-    ("body_pitch", "revolute", (0, 1, 0), -PI / 16, PI / 16, 500.0),
-    ("body_yaw", "revolute", (0, 0, 1), -PI / 16, PI / 16, 500.0),
+    # name, kind, axis, lower, upper, effort: absolute world pose of the body frame, within
+    # SPOT_BODY_HALF_RANGE of SPOT_NOMINAL_BODY_POSE
+    (name, kind, axis, centre - half, centre + half, effort)
+    for (name, kind, axis, effort), centre, half in zip(
+        [("body_x", "prismatic", (1, 0, 0), 2000.0),
+         ("body_y", "prismatic", (0, 1, 0), 2000.0),
+         ("body_z", "prismatic", (0, 0, 1), 2000.0),
+         ("body_roll", "revolute", (1, 0, 0), 500.0),
+         ("body_pitch", "revolute", (0, 1, 0), 500.0),
+         ("body_yaw", "revolute", (0, 0, 1), 500.0)],
+        SPOT_NOMINAL_BODY_POSE, SPOT_BODY_HALF_RANGE, strict=True)
 ]
 SPOT_ARM_JOINTS = [
     # name, parent, child, xyz, axis, lower, upper, effort
@@ -805,7 +848,7 @@ def spot_bodies() -> list[Body]:
         )
     )
     kx, kz = SPOT_KNEE
-    for leg, (_, side) in SPOT_LEGS.items():
+    for leg, (_, side) in SPOT_LEG_SIGNS.items():
         bodies += [
             Body(
                 f"{leg}_hip",
@@ -866,18 +909,18 @@ def spot_joints() -> list[UrdfJoint]:
         )
     ]
     kx, kz = SPOT_KNEE
-    for leg, (front, side) in SPOT_LEGS.items():
+    for leg, (front, side) in SPOT_LEG_SIGNS.items():
         kw = dict(velocity=10.0, damping=0.1)
         joints += [
             UrdfJoint(f"{leg}_hip_x", "revolute", "body", f"{leg}_hip",
                       (front * SPOT_HIP_X[0], side * SPOT_HIP_X[1], 0), axis=(1, 0, 0),
-                      lower=-0.7854, upper=0.7854, effort=45.0, **kw),
+                      lower=SPOT_HIP_X_LIMITS[0], upper=SPOT_HIP_X_LIMITS[1], effort=45.0, **kw),
             UrdfJoint(f"{leg}_hip_y", "revolute", f"{leg}_hip", f"{leg}_upper_leg",
-                      (0, side * SPOT_HIP_Y, 0), axis=(0, 1, 0), lower=-0.8988, upper=2.2951,
-                      effort=45.0, **kw),
+                      (0, side * SPOT_HIP_Y, 0), axis=(0, 1, 0), lower=SPOT_HIP_Y_LIMITS[0],
+                      upper=SPOT_HIP_Y_LIMITS[1], effort=45.0, **kw),
             UrdfJoint(f"{leg}_knee", "revolute", f"{leg}_upper_leg", f"{leg}_lower_leg",
-                      (kx, 0, kz), axis=(0, 1, 0), lower=-2.7929, upper=-0.2471, effort=115.0,
-                      **kw),
+                      (kx, 0, kz), axis=(0, 1, 0), lower=SPOT_KNEE_LIMITS[0],
+                      upper=SPOT_KNEE_LIMITS[1], effort=115.0, **kw),
             UrdfJoint(f"{leg}_foot_joint", "fixed", f"{leg}_lower_leg", f"{leg}_foot",
                       (0, 0, -SPOT_LOWER_LEG)),
         ]
@@ -1080,7 +1123,6 @@ GR1_JOINTS = [
 ]
 GR1_TOOL = (0.0, 0.0, -0.1)
 GR1_CAMERA = (0.09, 0.0, 0.13)
-GR1_PELVIS_HEIGHT = 0.88
 
 
 def gr1_leg_shapes(side: float) -> list[Shape]:
@@ -1218,7 +1260,7 @@ def stove_sdf() -> str:
         "stove",
         1.0,
         [
-            Shape("box", (0.30, 0.24, 0.02), colour="stove"),
+            Shape("box", STOVE_SIZE, colour="stove"),
             Shape(
                 "cyl",
                 (0.07, 0.002),
@@ -1245,7 +1287,6 @@ def stove_sdf() -> str:
 POT_N = 16
 POT_R_OUT = 0.095
 POT_WALL = 0.008
-POT_H = 0.1
 POT_BASE = 0.01
 
 
@@ -1258,8 +1299,8 @@ def pot_sdf() -> str:
         shapes.append(
             Shape(
                 "box",
-                (POT_WALL, seg, POT_H - POT_BASE),
-                (rc * math.cos(a), rc * math.sin(a), (POT_H + POT_BASE) / 2),
+                (POT_WALL, seg, POT_HEIGHT - POT_BASE),
+                (rc * math.cos(a), rc * math.sin(a), (POT_HEIGHT + POT_BASE) / 2),
                 (0, 0, a),
                 colour="pot",
             )
@@ -1278,7 +1319,7 @@ def pot_sdf() -> str:
     body = Body("pot", 0.4, shapes, mu=0.5)
     frame = (
         '    <frame name="pot_rim" attached_to="pot">\n'
-        '      <pose relative_to="pot">0 0 0.1 0 0 0</pose>\n'
+        f'      <pose relative_to="pot">0 0 {f(POT_HEIGHT)} 0 0 0</pose>\n'
         "    </frame>\n"
     )
     return sdf_file(
@@ -1297,8 +1338,8 @@ def lid_sdf() -> str:
         "lid",
         0.16,
         [
-            Shape("cyl", (0.11, 0.01), colour="lid", mass=0.12),
-            Shape("box", (0.02, 0.08, 0.02), (0, 0, 0.045), colour="lid_handle"),
+            Shape("cyl", (LID_RADIUS, LID_THICKNESS), colour="lid", mass=0.12),
+            Shape("box", LID_HANDLE_BAR, (0, 0, LID_HANDLE_Z), colour="lid_handle"),
             Shape("box", (0.012, 0.012, 0.03), (0, 0.034, 0.02), colour="lid_handle"),
             Shape("box", (0.012, 0.012, 0.03), (0, -0.034, 0.02), colour="lid_handle"),
             *support_spheres(
@@ -1311,7 +1352,7 @@ def lid_sdf() -> str:
     )
     frame = (
         '    <frame name="lid_handle" attached_to="lid">\n'
-        '      <pose relative_to="lid">0 0 0.045 0 0 0</pose>\n'
+        f'      <pose relative_to="lid">0 0 {f(LID_HANDLE_Z)} 0 0 0</pose>\n'
         "    </frame>\n"
     )
     return sdf_file(
@@ -1327,12 +1368,7 @@ def lid_sdf() -> str:
 
 # ================================================================================ cup scene
 
-SHELF_SIZE = (0.5, 0.3, 0.43)
-"""Outer size of the open shelf: width (x), depth (y), height (z)."""
-SHELF_SIDE = 0.02
-SHELF_BACK = 0.02
-SHELF_BOARD = 0.035
-"""Side and back walls 0.02 thick, top and bottom boards 0.035: interior 0.46 x 0.28 x 0.36."""
+# SHELF_SIZE, SHELF_SIDE, SHELF_BACK, SHELF_BOARD: legato_drake/dimensions.py.
 
 
 def box_corners(size, radius: float, bottom: float, inset: float = 0.0) -> list[Shape]:
@@ -1374,14 +1410,7 @@ def shelf_sdf() -> str:
 
 
 CUP_N = 16
-CUP_R_OUT = 0.08
-CUP_R_IN = 0.07
-CUP_H = 0.16
-CUP_BASE = 0.01
-CUP_HANDLE = (0.024, 0.014, 0.10)
-"""Handle bar: radial depth, tangential width (what the pads pinch), height."""
-CUP_HANDLE_R = 0.115
-CUP_HANDLE_Z = 0.085
+"""Wall boxes of the cup; its dimensions (CUP_*): legato_drake/dimensions.py."""
 
 
 def cup_sdf() -> str:
@@ -1430,9 +1459,7 @@ def cup_sdf() -> str:
 
 # ================================================================================ ladle scene
 
-LADLE_HANDLE = (0.08, 0.04, 0.04)
-LADLE_STICK = (0.12, 0.02, 0.02)
-LADLE_SCOOP = (0.06, 0.06, 0.03)
+# LADLE_HANDLE, LADLE_STICK, LADLE_SCOOP: legato_drake/dimensions.py.
 
 
 def corner_spheres(size, centre, radius: float) -> list[Shape]:
@@ -1473,10 +1500,7 @@ def ladle_sdf() -> str:
     )
 
 
-CASE_INTERIOR = (0.16, 0.26)
-CASE_WALL = 0.01
-CASE_BASE = 0.01
-CASE_WALL_H = 0.04
+# CASE_INTERIOR, CASE_WALL, CASE_BASE, CASE_WALL_H: legato_drake/dimensions.py.
 
 
 def case_sdf() -> str:
@@ -1524,8 +1548,9 @@ PACKAGE_XML = """<?xml version="1.0"?>
 """
 
 
-def main() -> None:
-    files = {
+def model_files() -> dict[str, str]:
+    """Every file this script writes: name -> text."""
+    return {
         "package.xml": PACKAGE_XML,
         "legato_gripper.sdf": gripper_sdf(),
         "abstract.urdf": abstract_urdf(),
@@ -1542,9 +1567,17 @@ def main() -> None:
         "ladle.sdf": ladle_sdf(),
         "case.sdf": case_sdf(),
     }
-    for name, text in files.items():
-        (HERE / name).write_text(text)
-        print("wrote", HERE / name)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description="Writes the primitive-geometry model files.")
+    parser.add_argument("--out", type=Path, default=HERE,
+                        help="folder to write them to (default: this one, models/)")
+    out = parser.parse_args(argv).out
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in model_files().items():
+        (out / name).write_text(text)
+        print("wrote", out / name)
 
 
 if __name__ == "__main__":

@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 from legato_drake.embodiments import EMBODIMENTS
-from legato_drake.stats import wilson_interval
+from legato_drake.summary import Rate, group_by, real_time_factor
 from legato_drake.tasks import TASKS
 
 HEADER = ("| task | robot | success | 95 % CI % | RMS mm: median / worst (seeds > 5) "
@@ -28,22 +28,22 @@ HEADER = ("| task | robot | success | 95 % CI % | RMS mm: median / worst (seeds 
 def table(rows: list[dict]) -> list[str]:
     """Markdown lines of the table for episode results ``rows`` (``EpisodeResult.to_dict``)."""
     lines = [HEADER, "| --- " * (HEADER.count("|") - 1) + "|"]
+    groups = group_by(rows, "task", "embodiment")
     for task in TASKS:
         for embodiment in EMBODIMENTS:
-            group = [r for r in rows if r["task"] == task and r["embodiment"] == embodiment]
+            group = groups.get((task, embodiment))
             if not group:
                 continue
-            wins = sum(r["success"] for r in group)
-            lo, hi = wilson_interval(wins, len(group))
+            rate = Rate.of(group)
             times = [r["success_time"] for r in group if r["success_time"] is not None]
             rms = [r["tracking"]["rms_mm"] for r in group]
-            rtf = sum(r["sim_time"] for r in group) / sum(r["wall_time"] for r in group)
             lines.append(
-                f"| {task} | {embodiment} | {wins}/{len(group)} | {100 * lo:.0f}-{100 * hi:.0f} "
+                f"| {task} | {embodiment} | {rate.count_text} | {rate.interval_text} "
                 f"| {statistics.median(rms):.2f} / {max(rms):.2f} ({sum(x > 5 for x in rms)}) "
                 f"| {max(r['tracking']['rms_deg'] for r in group):.2f} "
                 f"| {max(r['tracking']['max_mm'] for r in group):.1f} "
-                f"| {statistics.median(times) if times else float('nan'):.1f} | {rtf:.2f} |")
+                f"| {statistics.median(times) if times else float('nan'):.1f} "
+                f"| {real_time_factor(group):.2f} |")
             for r in group:
                 if not r["success"]:
                     print(f"failed: {task} {embodiment} seed {r['seed']}: {r['reason']}",

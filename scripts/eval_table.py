@@ -16,8 +16,8 @@ import argparse
 from pathlib import Path
 
 from legato_drake.embodiments import EMBODIMENTS
-from legato_drake.evaluation import load_results
-from legato_drake.stats import wilson_interval
+from legato_drake.pipelines.evaluate import load_results
+from legato_drake.summary import Rate, group_by
 
 PAPER = {  # success % (SPEC §9) per task: method -> embodiment -> rate
     "lid": {"LEGATO (paper)": dict(abstract=76, panda=88, spot=80, google=96, gr1=90),
@@ -32,20 +32,16 @@ PAPER = {  # success % (SPEC §9) per task: method -> embodiment -> rate
 }
 
 
-def runs(paths: list[Path], task: str) -> dict[str, dict[int, dict[str, tuple[int, int]]]]:
-    """method -> training seed -> embodiment -> (successes, trials) for ``task``."""
-    table: dict[str, dict[int, dict[str, list[int]]]] = {}
+def runs(paths: list[Path], task: str) -> dict[str, dict[int, dict[str, Rate]]]:
+    """method -> training seed -> embodiment -> successes out of trials for ``task``."""
+    trials: dict[str, dict[int, list[dict]]] = {}
     for path in paths:
         doc = load_results(path)
         method, seed = doc["config"]["name"], int(doc["config"]["seed"])
-        cells = table.setdefault(method, {}).setdefault(seed, {})
-        for trial in doc["trials"]:
-            if trial["task"] == task:
-                k_n = cells.setdefault(trial["embodiment"], [0, 0])
-                k_n[0] += bool(trial["success"])
-                k_n[1] += 1
-    return {m: {s: {e: tuple(v) for e, v in c.items()} for s, c in seeds.items()}
-            for m, seeds in table.items()}
+        trials.setdefault(method, {}).setdefault(seed, []).extend(
+            t for t in doc["trials"] if t["task"] == task)
+    return {method: {seed: {e: Rate.of(cell) for (e,), cell in group_by(run, "embodiment").items()}
+                     for seed, run in seeds.items()} for method, seeds in trials.items()}
 
 
 def _spread(rates: list[float]) -> str:
@@ -70,11 +66,10 @@ def table(paths: list[Path], task: str) -> list[str]:
             if not per_seed:
                 cells.append("-")
                 continue
-            k, n = sum(x[0] for x in per_seed), sum(x[1] for x in per_seed)
-            low, high = wilson_interval(k, n)
-            cells.append(f"{_spread([100 * a / b for a, b in per_seed])}; {k}/{n} "
-                         f"[{100 * low:.0f}-{100 * high:.0f}]")
-        cross = [sum(100 * c[e][0] / c[e][1] for e in others) / len(others)
+            pooled = Rate(sum(r.successes for r in per_seed), sum(r.trials for r in per_seed))
+            cells.append(f"{_spread([r.percent for r in per_seed])}; {pooled.count_text} "
+                         f"[{pooled.interval_text}]")
+        cross = [sum(c[e].percent for e in others) / len(others)
                  for c in seeds.values() if others and all(e in c for e in others)]
         lines.append(f"| {method} ({', '.join(str(s) for s in sorted(seeds))}) | " +
                      " | ".join(cells) + f" | {_spread(cross) if cross else '-'} |")

@@ -25,15 +25,15 @@ import argparse
 import logging
 from pathlib import Path
 
-from legato_drake.data.collect import collect
 from legato_drake.embodiments import EMBODIMENTS
-from legato_drake.evaluation import combine, evaluate, plot_success
 from legato_drake.files import atomic_write_text
 from legato_drake.learning.checkpoint import load_checkpoint
 from legato_drake.learning.config import load_config
 from legato_drake.learning.train import train
+from legato_drake.pipelines.collect import collect
+from legato_drake.pipelines.evaluate import combine, evaluate, plot_success
+from legato_drake.pipelines.selection import select_checkpoint
 from legato_drake.scenario import ExpertNoiseConfig
-from legato_drake.selection import select_checkpoint
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 METHODS = {

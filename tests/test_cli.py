@@ -158,16 +158,17 @@ def test_a_binary_scenario_file_is_a_clear_error(tmp_path, capsys):
 
 
 def _fake_demo() -> tuple:
-    """A stand-in for parallel_map in cmd_demo: records the scenarios, succeeds at once."""
+    """A stand-in for run_episodes in cmd_demo: records the scenarios, succeeds at once."""
     seen = []
 
-    def fake(function, jobs_in, workers=1, desc=""):
-        seen.extend(scenario for scenario, _ in jobs_in)
+    def fake(jobs_in, workers=1, desc="", executor=None):
+        scenarios = [job.scenario for job in jobs_in]
+        seen.extend(scenarios)
         return [{"embodiment": s.embodiment, "task": s.task, "controller": s.controller,
                  "seed": s.seed, "success": True,
                  "reason": "", "tracking": {"rms_mm": 0.1, "rms_deg": 0.1, "max_mm": 0.2},
                  "sim_time": 1.0, "wall_time": 1.0, "real_time_factor": 1.0, "html": None}
-                for s, _ in jobs_in]
+                for s in scenarios]
 
     return fake, seen
 
@@ -184,7 +185,7 @@ def test_demo_respects_the_scenario_file_unless_flags_say_otherwise(tmp_path, ca
     path = tmp_path / "s.yaml"
     path.write_text("embodiment: abstract\ntask: cup\nseed: 7\nduration: 3.0\n")
     fake, seen = _fake_demo()
-    monkeypatch.setattr("legato_drake.parallel.parallel_map", fake)
+    monkeypatch.setattr("legato_drake.pipelines.episodes.run_episodes", fake)
     code, out, _ = _main(capsys, "demo", "--scenario", str(path), "--no-replay", *flags)
     assert code == 0
     assert [(s.embodiment, s.task, s.seed) for s in seen] == expected
@@ -195,7 +196,7 @@ def test_demo_respects_the_scenario_file_unless_flags_say_otherwise(tmp_path, ca
 
 def test_demo_without_a_scenario_runs_every_embodiment(capsys, monkeypatch):
     fake, seen = _fake_demo()
-    monkeypatch.setattr("legato_drake.parallel.parallel_map", fake)
+    monkeypatch.setattr("legato_drake.pipelines.episodes.run_episodes", fake)
     assert _main(capsys, "demo", "--no-replay")[0] == 0
     assert [s.embodiment for s in seen] == ["abstract", "panda", "spot", "google", "gr1"]
     assert {s.task for s in seen} == {"lid"}
@@ -205,7 +206,7 @@ def test_demo_without_a_scenario_runs_every_embodiment(capsys, monkeypatch):
 
 def test_demo_controller_flags(capsys, monkeypatch, tmp_path):
     fake, seen = _fake_demo()
-    monkeypatch.setattr("legato_drake.parallel.parallel_map", fake)
+    monkeypatch.setattr("legato_drake.pipelines.episodes.run_episodes", fake)
     assert _main(capsys, "demo", "--no-replay", "--controller", "scripted",
                  "--embodiment", "panda")[0] == 0
     assert [(s.controller, s.checkpoint) for s in seen] == [("scripted", "")]
@@ -324,14 +325,14 @@ def test_collect_never_shrinks_a_dataset(tmp_path, capsys, monkeypatch):
     calls = []
 
     def fake_collect(**kwargs):
-        from legato_drake.data.collect import CollectReport
+        from legato_drake.pipelines.collect import CollectReport
 
         calls.append(kwargs)
         assert not data.exists() and not (tmp_path / "d.hdf5.parts").exists()
         return CollectReport(data, kwargs["episodes"], [{}] * kwargs["episodes"], [], 0.0)
 
     (tmp_path / "d.hdf5.parts").mkdir()
-    monkeypatch.setattr("legato_drake.data.collect.collect", fake_collect)
+    monkeypatch.setattr("legato_drake.pipelines.collect.collect", fake_collect)
     args = ["collect", "--out", str(data), "--episodes", "2", "--no-camera", "--overwrite"]
     code, _, _ = _main(capsys, *args)
     assert code == 0 and calls[0]["episodes"] == 2
@@ -347,7 +348,7 @@ def test_collect_never_shrinks_a_dataset(tmp_path, capsys, monkeypatch):
         (tmp_path / "d.hdf5.parts").mkdir()
         raise DatasetError("no episode kept")
 
-    monkeypatch.setattr("legato_drake.data.collect.collect", failing_collect)
+    monkeypatch.setattr("legato_drake.pipelines.collect.collect", failing_collect)
     code, _, err = _main(capsys, *args)
     assert code == 2
     _one_error_line(err, "no episode kept")
@@ -358,8 +359,8 @@ def test_collect_never_shrinks_a_dataset(tmp_path, capsys, monkeypatch):
 
 def test_evaluate_exit_codes_follow_the_documented_rule(tmp_path, capsys, monkeypatch):
     """0 when every trial ran (failed trials are results), 1 when a trial raised."""
-    from legato_drake import evaluation
     from legato_drake.learning.train import train
+    from legato_drake.pipelines import evaluate as evaluation
     from tests.learning_helpers import synthetic_dataset, tiny_config
 
     data = synthetic_dataset(tmp_path / "d.hdf5", demos=3, length=10, images=False)
@@ -368,19 +369,20 @@ def test_evaluate_exit_codes_follow_the_documented_rule(tmp_path, capsys, monkey
             "abstract", "--trials", "2"]
 
     def failing(job):
-        return {"method": job["method"], "embodiment": job["embodiment"], "task": job["task"],
-                "trial": job["trial"], "seed": job["seed"], "success": False,
+        s = job.scenario
+        return {"method": job.method, "embodiment": s.embodiment, "task": s.task,
+                "trial": job.trial, "seed": s.seed, "success": False,
                 "reason": "lid tilted 40 deg", "success_time": None, "episode_time": 1.0,
                 "wall_time": 0.1, "html": None}
 
-    monkeypatch.setattr(evaluation, "_run_trial", failing)
+    monkeypatch.setattr(evaluation, "run_trial", failing)
     assert _main(capsys, *args, "--out", str(tmp_path / "a"))[0] == 0
 
     def boom(scenario, html=None):
         raise RuntimeError("the solver diverged")
 
     monkeypatch.undo()
-    monkeypatch.setattr("legato_drake.episode.run_episode", boom)
+    monkeypatch.setattr(evaluation, "run_episode", boom)
     code, out, _ = _main(capsys, *args, "--out", str(tmp_path / "b"))
     assert code == 1 and "error" in out
 

@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from legato_drake.data import collect as collect_module
-from legato_drake.data.collect import collect, parts_dir, record_episode
 from legato_drake.data.layout import DatasetError, check_file, open_dataset, sorted_demos
 from legato_drake.data.synthetic import synthetic_episode
 from legato_drake.data.writer import write_dataset
+from legato_drake.pipelines import collect as collect_module
+from legato_drake.pipelines.collect import collect, parts_dir, record_episode
 from legato_drake.scenario import Scenario
 
 
@@ -61,7 +61,7 @@ class FakeRunner:
     def __init__(self):
         self.seeds: list[int] = []
 
-    def __call__(self, job, folder):
+    def __call__(self, job):
         seed = job.scenario.seed
         self.seeds.append(seed)
         ok = seed % 3 != 1
@@ -69,7 +69,7 @@ class FakeRunner:
         episode.attrs.update(key=job.key)
         outcome = dict(key=job.key, seed=seed, success=ok, reason="" if ok else "dropped it",
                        num_samples=3, wall_time=0.0, source="")
-        write_dataset(folder / f"{job.key}.hdf5", [episode], extra=dict(outcome=outcome))
+        write_dataset(job.part, [episode], extra=dict(outcome=outcome))
         return outcome
 
 

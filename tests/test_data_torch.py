@@ -80,3 +80,29 @@ def test_clear_errors_on_load(dataset, tmp_path):
         del f["data/demo_3/dones"]
     with pytest.raises(DatasetError, match="demo_3: missing 'dones'"):
         DemoSequenceDataset(path)
+
+
+@pytest.mark.parametrize("image_dtype", ["float", "uint8"])
+def test_training_and_rollout_preprocess_images_alike(dataset, image_dtype):
+    """The dataset's images are ``image_to_tensor`` of the recorded frames, exactly, and the
+    policy controller's preprocessing is that same function: a policy sees at rollout what
+    it was trained on."""
+    from legato_drake.data.torch_dataset import image_to_tensor
+    from legato_drake.systems import policy_controller
+
+    assert policy_controller.image_to_tensor is image_to_tensor
+    path, episodes = dataset
+    item = DemoSequenceDataset(path, seq_length=3, split="all", image_dtype=image_dtype)[1]
+    for key in ("left_gray", "right_gray"):
+        frames = episodes[0].obs[key][1:4]  # (3, H, W, 1) uint8, as recorded
+        expected = image_to_tensor(frames, image_dtype)
+        assert expected.shape == (3, 1, *frames.shape[1:3])
+        assert item["obs"][key].dtype == expected.dtype
+        torch.testing.assert_close(item["obs"][key], expected, rtol=0, atol=0)
+        for step in range(3):  # one camera frame at a time, as at rollout
+            torch.testing.assert_close(image_to_tensor(frames[step], image_dtype),
+                                       expected[step], rtol=0, atol=0)
+    frame = episodes[0].obs["left_gray"][0]
+    assert image_to_tensor(frame).dtype == torch.float32
+    assert float(image_to_tensor(frame).max()) <= 1.0
+    assert torch.equal(image_to_tensor(frame, "uint8")[0], torch.from_numpy(frame[..., 0]))

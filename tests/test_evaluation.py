@@ -10,19 +10,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from legato_drake import evaluation
 from legato_drake.cli import main
 from legato_drake.errors import ConfigError
-from legato_drake.evaluation import (
+from legato_drake.learning.train import train
+from legato_drake.pipelines import evaluate as evaluation
+from legato_drake.pipelines.evaluate import (
+    TrialJob,
     combine,
     evaluate,
-    failure_counts,
     load_results,
     plot_success,
     results_path,
-    summarize,
 )
-from legato_drake.learning.train import train
+from legato_drake.summary import failure_rows, reason_kind, trial_rows
 from tests.learning_helpers import synthetic_dataset, tiny_config
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
@@ -36,10 +36,11 @@ def checkpoint(tmp_path_factory) -> Path:
     return tmp / "run" / "best.pt"
 
 
-def _fake_trial(job: dict) -> dict:
-    return {"method": job["method"], "embodiment": job["embodiment"], "task": job["task"],
-            "trial": job["trial"], "seed": job["seed"], "success": job["seed"] % 2 == 0,
-            "reason": "" if job["seed"] % 2 == 0 else "fake", "success_time": 1.0,
+def _fake_trial(job: TrialJob) -> dict:
+    s = job.scenario
+    return {"method": job.method, "embodiment": s.embodiment, "task": s.task,
+            "trial": job.trial, "seed": s.seed, "success": s.seed % 2 == 0,
+            "reason": "" if s.seed % 2 == 0 else "fake", "success_time": 1.0,
             "episode_time": 2.0, "wall_time": 0.1, "html": None}
 
 
@@ -48,32 +49,31 @@ def test_results_are_written_per_trial_and_an_interrupted_run_resumes(tmp_path, 
     calls = []
 
     def flaky(job):
-        calls.append(job["seed"])
+        calls.append(job.scenario.seed)
         if len(calls) == 3:
             raise KeyboardInterrupt
         return _fake_trial(job)
 
-    monkeypatch.setattr(evaluation, "_run_trial", flaky)
+    monkeypatch.setattr(evaluation, "run_trial", flaky)
     with pytest.raises(KeyboardInterrupt):
         evaluate(checkpoint, ["abstract", "panda"], ["lid"], 2, tmp_path, progress=False)
     path = results_path(tmp_path, "tiny")
     assert len(load_results(path)["trials"]) == 2
-    monkeypatch.setattr(evaluation, "_run_trial", _fake_trial)
+    monkeypatch.setattr(evaluation, "run_trial", _fake_trial)
     doc = evaluate(checkpoint, ["abstract", "panda"], ["lid"], 2, tmp_path, progress=False)
     assert [(t["embodiment"], t["seed"]) for t in doc["trials"]] == [
         ("abstract", 10000), ("abstract", 10001), ("panda", 10000), ("panda", 10001)]
     with open(path.with_suffix(".csv"), newline="") as f:
         assert len(list(csv.DictReader(f))) == 4
-    rows = summarize(doc["trials"])
+    rows = trial_rows(doc["trials"])
     assert rows[0][:4] == ["tiny", "abstract", "lid", "1/2"] and rows[0][4] == 50.0
-    assert failure_counts(doc["trials"])[0][3] == "fake x1"
-    assert evaluation.reason_kind("lid still held: the fingers are open 1 mm") == \
-        "lid still held"
-    assert evaluation.reason_kind("lid centre 23.9 cm from the pot axis (max 3 cm)") == \
+    assert failure_rows(doc["trials"])[0][3] == "fake x1"
+    assert reason_kind("lid still held: the fingers are open 1 mm") == "lid still held"
+    assert reason_kind("lid centre 23.9 cm from the pot axis (max 3 cm)") == \
         "lid centre … from the pot axis"
-    assert evaluation.reason_kind("lid -1.4 cm from resting on the rim (allowed -1.0 to +1.5 "
-                                  "cm)") == "lid … from resting on the rim"
-    assert evaluation.reason_kind("lid tilted 62 deg (max 15 deg)") == "lid tilted …"
+    assert reason_kind("lid -1.4 cm from resting on the rim (allowed -1.0 to +1.5 cm)") == \
+        "lid … from resting on the rim"
+    assert reason_kind("lid tilted 62 deg (max 15 deg)") == "lid tilted …"
     png = plot_success(combine([path]), tmp_path / "p.png")
     assert png.stat().st_size > 1000
 
@@ -91,7 +91,7 @@ def test_training_seeds_and_foreign_results_are_refused(tmp_path, checkpoint):
 
 
 def test_a_changed_checkpoint_or_duration_is_not_mixed_in(tmp_path, checkpoint, monkeypatch):
-    monkeypatch.setattr(evaluation, "_run_trial", _fake_trial)
+    monkeypatch.setattr(evaluation, "run_trial", _fake_trial)
     ckpt = tmp_path / "model.pt"
     ckpt.write_bytes(checkpoint.read_bytes())
     out = tmp_path / "results"
@@ -112,7 +112,7 @@ def test_a_trial_that_raises_is_a_recorded_failure(tmp_path, checkpoint, monkeyp
     def boom(scenario, html=None):
         raise RuntimeError("the solver diverged")
 
-    monkeypatch.setattr("legato_drake.episode.run_episode", boom)
+    monkeypatch.setattr(evaluation, "run_episode", boom)
     doc = evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False)
     (trial,) = doc["trials"]
     assert not trial["success"] and "the solver diverged" in trial["reason"]
@@ -162,7 +162,7 @@ def test_image_policy_drives_the_diagram_from_the_cameras(tmp_path):
 def test_collect_train_evaluate_end_to_end(tmp_path, capsys):
     """Real short episodes (camera off), the small state config trained for 150 steps, then
     one closed-loop trial through the real diagram, evaluated twice (the second resumes)."""
-    from legato_drake.data.collect import collect
+    from legato_drake.pipelines.collect import collect
 
     data = tmp_path / "lid.hdf5"
     collect("lid", "abstract", 3, data, keep_failures=True, duration=4.0, camera=False,
@@ -196,7 +196,7 @@ def test_collect_train_evaluate_end_to_end(tmp_path, capsys):
 
 
 def test_another_seed_range_is_refused_unless_overwrite(tmp_path, checkpoint, monkeypatch):
-    monkeypatch.setattr(evaluation, "_run_trial", _fake_trial)
+    monkeypatch.setattr(evaluation, "run_trial", _fake_trial)
     evaluate(checkpoint, ["abstract"], ["lid"], 2, tmp_path, progress=False)
     path = results_path(tmp_path, "tiny")
     before = path.read_text()

@@ -8,8 +8,8 @@ import torch
 import torch.nn.functional as F  # noqa: N812
 
 from legato_drake.data.derived import observation_sizes
-from legato_drake.data.torch_dataset import DemoSequenceDataset
-from legato_drake.learning.encoders import ImageEncoder, SpatialSoftmax, image_to_tensor
+from legato_drake.data.torch_dataset import DemoSequenceDataset, image_to_tensor
+from legato_drake.learning.encoders import ImageEncoder, SpatialSoftmax
 from legato_drake.learning.normalization import OBS_MIN_STD, Normalizer, compute_stats
 from legato_drake.learning.policies import PolicyOutput, RecurrentGMMPolicy
 from tests.learning_helpers import synthetic_dataset, tiny_config
@@ -75,8 +75,10 @@ def test_policy_shapes_and_finite_log_prob(algo, mode):
         assert out.grasp_logits.shape == (B, T, 2)
     log_prob = out.distribution().log_prob(torch.zeros(B, T, dims))
     assert log_prob.shape == (B, T) and torch.isfinite(log_prob).all()
-    action, _ = policy.act({k: v[:, 0] for k, v in batch["obs"].items()})
-    assert action.shape == (B, 7) and set(action[:, 6].tolist()) <= {0.0, 1.0}
+    action, state = policy.act({k: v[:, 0] for k, v in batch["obs"].items()},
+                               policy.initial_state())
+    assert action.shape == (B, 1, 7) and set(action[:, 0, 6].tolist()) <= {0.0, 1.0}
+    assert state.steps == 1 and state.hidden[0].shape == (1, B, 16)
     losses = policy.losses(batch)
     assert set(losses) == {"nll", "ce", "invar", "total"}
     assert all(torch.isfinite(v) for v in losses.values())

@@ -27,6 +27,21 @@ from pydrake.multibody.tree import PrismaticJoint, RevoluteJoint, WeldJoint
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
+from legato_drake.dimensions import (
+    CASE_INTERIOR,
+    GR1_PELVIS_HEIGHT,
+    GRIPPER_OPEN,
+    POT_HEIGHT,
+    SPOT_HIP_X,
+    SPOT_HIP_X_LIMITS,
+    SPOT_HIP_Y,
+    SPOT_HIP_Y_LIMITS,
+    SPOT_KNEE,
+    SPOT_KNEE_LIMITS,
+    SPOT_LEG_SIGNS,
+    SPOT_NOMINAL_BODY_POSE,
+)
+
 MODEL_FILES = (
     "legato_gripper.sdf",
     "abstract.urdf",
@@ -184,23 +199,9 @@ def test_generator_reproduces_the_files(models_dir):
         spec.loader.exec_module(module)
     finally:
         del sys.modules[spec.name]
-    expected = {
-        "legato_gripper.sdf": module.gripper_sdf(),
-        "abstract.urdf": module.abstract_urdf(),
-        "panda.urdf": module.panda_urdf(),
-        "spot.urdf": module.spot_urdf(),
-        "google_robot.urdf": module.google_robot_urdf(),
-        "gr1.urdf": module.gr1_urdf(),
-        "table.sdf": module.table_sdf(),
-        "stove.sdf": module.stove_sdf(),
-        "pot.sdf": module.pot_sdf(),
-        "lid.sdf": module.lid_sdf(),
-        "shelf.sdf": module.shelf_sdf(),
-        "cup.sdf": module.cup_sdf(),
-        "ladle.sdf": module.ladle_sdf(),
-        "case.sdf": module.case_sdf(),
-        "package.xml": module.PACKAGE_XML,
-    }
+    expected = module.model_files()
+    written = {p.name for p in models_dir.iterdir() if p.suffix in (".sdf", ".urdf", ".xml")}
+    assert set(expected) == written, "every model file is generated"
     for name, text in expected.items():
         problem = text_difference((models_dir / name).read_text(), text)
         assert problem is None, f"{name}: {problem}; rerun generate_models.py"
@@ -275,7 +276,7 @@ def test_gripper_finger_joints(gripper, joint_name, child, axis):
         joint.frame_on_parent().GetFixedPoseInBodyFrame().translation(), [0.07, 0, 0], atol=1e-12
     )
     assert joint.position_lower_limits()[0] == pytest.approx(0.0)
-    assert joint.position_upper_limits()[0] == pytest.approx(0.052)
+    assert joint.position_upper_limits()[0] == pytest.approx(GRIPPER_OPEN)
     assert joint.velocity_upper_limits()[0] == pytest.approx(0.2)
     assert joint.default_damping_vector()[0] == pytest.approx(0.1)
     actuator = gripper.plant.GetJointActuatorByName(joint_name, gripper.model)
@@ -291,7 +292,7 @@ def inner_pad_gap(gripper: Loaded, q: float) -> float:
 
 
 def test_gripper_finger_gap(gripper):
-    assert inner_pad_gap(gripper, 0.052) == pytest.approx(0.104)
+    assert inner_pad_gap(gripper, GRIPPER_OPEN) == pytest.approx(2 * GRIPPER_OPEN)
     assert inner_pad_gap(gripper, 0.0) == pytest.approx(0.0, abs=1e-12)
     # The left inner face is at y = q, the right at y = -q, both at x = 0.07.
     gripper.plant.SetPositions(gripper.context, gripper.model, [0.03, 0.03])
@@ -559,7 +560,7 @@ def test_pot(models_dir):
     pot = single_body(models_dir, "pot.sdf", "pot", "pot")
     assert pot.plant.GetBodyByName("pot").default_mass() == pytest.approx(0.4)
     np.testing.assert_allclose(
-        pot.frame("pot_rim").GetFixedPoseInBodyFrame().translation(), [0, 0, 0.1]
+        pot.frame("pot_rim").GetFixedPoseInBodyFrame().translation(), [0, 0, POT_HEIGHT]
     )
     walls, handles, base, feet = [], [], [], []
     for geometry_id in pot.collisions("pot"):
@@ -699,7 +700,7 @@ def test_gripper_pads_hold_the_lid_by_its_handle(models_dir):
         {"gripper_base": RigidTransform(R_WG, bar + [0, 0, 0.14])},
     )
     gripper = plant.GetModelInstanceByName("legato_gripper")
-    plant.SetPositions(context, gripper, [0.052, 0.052])
+    plant.SetPositions(context, gripper, [GRIPPER_OPEN, GRIPPER_OPEN])
     plant.SetFreeBodyPose(context, plant.GetBodyByName("lid"), RigidTransform(bar - [0, 0, 0.045]))
     plant.get_actuation_input_port(gripper).FixValue(context, [-10.0, -10.0])
     simulator.AdvanceTo(0.5)
@@ -722,27 +723,28 @@ R = "revolute"
 P = "prismatic"
 SPOT_ARM_HOME = np.array([0.0, -0.66, 0.66, 0.0, 0.0, 0.0]) * PI
 SPOT_ARM = ("arm_sh0", "arm_sh1", "arm_el0", "arm_el1", "arm_wr0", "arm_wr1")
-SPOT_BODY_HOME = (-0.2, 0.0, 0.4, 0.0, 0.0, 0.0)
+SPOT_BODY_HOME = SPOT_NOMINAL_BODY_POSE
 GOOGLE_ARM = ("joint_torso", "joint_shoulder", "joint_bicep", "joint_elbow", "joint_forearm",
               "joint_wrist", "joint_gripper")
 GOOGLE_HOME = np.array([0.0, 0.125, 0.0, 0.625, 0.0, -0.25, 0.5]) * PI
 GR1_ARM = ("r_shoulder_pitch", "r_shoulder_roll", "r_shoulder_yaw", "r_elbow_pitch",
            "r_wrist_yaw", "r_wrist_roll", "r_wrist_pitch")
 GR1_HOME = np.array([0.0, -0.16, 0.33, -0.16, -0.16, 0.0, 0.0]) * PI
-GR1_PELVIS = RigidTransform([-0.1, 0.0, 0.88])
+GR1_PELVIS = RigidTransform([-0.1, 0.0, GR1_PELVIS_HEIGHT])
 TILT = math.radians(25.0)
 
 
 def spot_leg_rows():
     rows = []
-    for leg, front, side in (("fl", 1, 1), ("fr", 1, -1), ("hl", -1, 1), ("hr", -1, -1)):
+    for leg, (front, side) in SPOT_LEG_SIGNS.items():
         rows += [
-            (f"{leg}_hip_x", R, "body", f"{leg}_hip", (front * 0.29785, side * 0.055, 0),
-             (0, 0, 0), (1, 0, 0), -0.7854, 0.7854),
-            (f"{leg}_hip_y", R, f"{leg}_hip", f"{leg}_upper_leg", (0, side * 0.110945, 0),
-             (0, 0, 0), (0, 1, 0), -0.8988, 2.2951),
-            (f"{leg}_knee", R, f"{leg}_upper_leg", f"{leg}_lower_leg", (0.025, 0, -0.3205),
-             (0, 0, 0), (0, 1, 0), -2.7929, -0.2471),
+            (f"{leg}_hip_x", R, "body", f"{leg}_hip",
+             (front * SPOT_HIP_X[0], side * SPOT_HIP_X[1], 0), (0, 0, 0), (1, 0, 0),
+             *SPOT_HIP_X_LIMITS),
+            (f"{leg}_hip_y", R, f"{leg}_hip", f"{leg}_upper_leg", (0, side * SPOT_HIP_Y, 0),
+             (0, 0, 0), (0, 1, 0), *SPOT_HIP_Y_LIMITS),
+            (f"{leg}_knee", R, f"{leg}_upper_leg", f"{leg}_lower_leg",
+             (SPOT_KNEE[0], 0, SPOT_KNEE[1]), (0, 0, 0), (0, 1, 0), *SPOT_KNEE_LIMITS),
         ]
     return rows
 
@@ -930,7 +932,8 @@ def test_spot_masses_and_geometry(robots):
 def test_spot_home_posture(robots):
     """Home: body (-0.2, 0, 0.4), arm home, legs standing: feet on z = 0 below the hips,
     tool frame where the arm's offsets put it (forearm level, pitch 0)."""
-    from legato_drake.systems.spot_legs import LEG_JOINTS, standing_leg_angles
+    from legato_drake.embodiments.spot import LEG_JOINTS
+    from legato_drake.leg_kinematics import standing_leg_angles
 
     spot = robots["spot.urdf"]
     legs = standing_leg_angles()
@@ -943,7 +946,8 @@ def test_spot_home_posture(robots):
     assert np.all(q <= spot.plant.GetPositionUpperLimits())
     for leg, x, y in (("fl", 1, 1), ("fr", 1, -1), ("hl", -1, 1), ("hr", -1, -1)):
         foot = spot.frame(f"{leg}_foot").CalcPoseInWorld(spot.context).translation()
-        np.testing.assert_allclose(foot, [-0.2 + x * 0.29785, y * (0.055 + 0.110945), 0.0],
+        np.testing.assert_allclose(foot, [-0.2 + x * SPOT_HIP_X[0],
+                                          y * (SPOT_HIP_X[1] + SPOT_HIP_Y), 0.0],
                                    atol=1e-12)
     a = -0.66 * PI
     elbow = np.array([0.092 + 0.3385 * math.cos(a), 0.0, 0.588 - 0.3385 * math.sin(a)])
@@ -1160,7 +1164,7 @@ def test_case(models_dir):
                   if size[1] > 0.2)
     inner_y = min(abs(X.translation()[1]) - size[1] / 2 for size, X in walls
                   if size[0] < 0.2 and size[1] < 0.05)
-    assert (2 * inner_x, 2 * inner_y) == pytest.approx((0.16, 0.26))
+    assert (2 * inner_x, 2 * inner_y) == pytest.approx(CASE_INTERIOR)
     feet = collision_feet(case, "case")
     assert len(feet) == 4
     np.testing.assert_allclose(feet[:, 2], 0.0, atol=1e-12)

@@ -41,7 +41,9 @@ def _expected_actions(policy, observe, steps: int, reset: int) -> np.ndarray:
         obs = {"delta_positions": torch.tensor(history[:, :3].reshape(1, 6)).float(),
                "delta_eulers": torch.tensor(history[:, 3:].reshape(1, 6)).float(),
                **observe()}
-        action, hidden = policy.act(obs, hidden)
+        with torch.no_grad():
+            out, hidden = policy({k: v[:, None] for k, v in obs.items()}, hidden)
+        action = policy.mode_action(out)[:, 0]
         actions.append(action[0].numpy().astype(float))
         history = np.concatenate([history[1:], action[0, None, :6].numpy()])
     return np.array(actions)
@@ -112,7 +114,7 @@ def test_image_policy_reads_both_cameras(tmp_path):
     for port in controller.get_image_input_ports():
         port.FixValue(context, images[port.get_name()])
     actions = _run(controller, context, 3)
-    from legato_drake.learning.encoders import image_to_tensor
+    from legato_drake.data.torch_dataset import image_to_tensor
 
     expected = _expected_actions(load_checkpoint(path).policy,
                                  lambda: {k: image_to_tensor(v)[None] for k, v in images.items()},

@@ -9,17 +9,19 @@ from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.analysis import Simulator
 
 from legato_drake import conventions
+from legato_drake.data import pose_stream as pose_stream_module
 from legato_drake.data.pose_stream import (
     COLUMNS,
     PoseStreamError,
     load_pose_stream,
     make_pose_stream,
     script_to_stream,
-    scripted_pose_stream,
     stream_to_actions,
     write_pose_stream,
 )
+from legato_drake.diagram import build_diagram
 from legato_drake.errors import ConfigError
+from legato_drake.pipelines.pose_streams import scripted_pose_stream
 from legato_drake.poses import apply_delta, pose_error, pose_to_vector, vector_to_pose
 from legato_drake.scenario import Scenario, scenario_from_yaml_text
 from legato_drake.systems.pose_replay import PoseStreamReplay
@@ -117,17 +119,29 @@ def test_missing_or_foreign_files(tmp_path):
         load_pose_stream(tmp_path / "p.npz")
 
 
-def test_scenario_field(tmp_path):
+def test_scenario_field(tmp_path, monkeypatch):
     with pytest.raises(ConfigError, match="pose_stream.*when controller is 'replay'"):
         Scenario(controller="replay").validate()
     with pytest.raises(ConfigError, match="pose_stream in s.yaml: pose stream file not found"):
         scenario_from_yaml_text(f"controller: replay\npose_stream: {tmp_path / 'x.csv'}\n",
                                 "s.yaml")
+    (tmp_path / "p.txt").write_text("t\n")
+    with pytest.raises(ConfigError, match="pose_stream: .*p.txt: unknown format"):
+        Scenario(controller="replay", pose_stream=str(tmp_path / "p.txt")).validate()
+    # Validation only checks that the file is there; it is read where the diagram is built.
     bad = _rows(tmp_path / "bad.csv", ["0,0,0,0,1,0,0,0,0", "0,0,0,0,1,0,0,0,0"])
-    with pytest.raises(ConfigError, match="pose_stream: .*bad.csv: column 't'"):
-        Scenario(controller="replay", pose_stream=bad).validate()
+    scenario = Scenario(embodiment="abstract", controller="replay", pose_stream=bad)
+    scenario.camera.enabled = False
+    with pytest.raises(ConfigError, match="bad.csv: column 't'"):
+        build_diagram(scenario.validate())
     good = write_pose_stream(tmp_path / "good.csv", script_to_stream(*_script()))
-    assert Scenario(controller="replay", pose_stream=str(good)).validate()
+    reads = []
+    read_csv = pose_stream_module._read_csv
+    monkeypatch.setattr(pose_stream_module, "_read_csv",
+                        lambda path: reads.append(path) or read_csv(path))
+    scenario = scenario.replace(pose_stream=str(good)).replace(seed=1)
+    built = build_diagram(scenario)
+    assert built.controller.stream.source == str(good) and reads == [good]  # read once
 
 
 def test_replay_system_alone():
@@ -153,8 +167,8 @@ def test_replay_system_alone():
 def test_replaying_a_scripted_recording_reproduces_the_success(tmp_path):
     """A scripted demonstration written as a 200 Hz stream in a tracker frame, replayed by
     ``collect --source``, succeeds as the scripted episode does."""
-    from legato_drake.data.collect import collect
     from legato_drake.data.layout import check_file, open_dataset
+    from legato_drake.pipelines.collect import collect
 
     stream = scripted_pose_stream("lid", seed=1, rate=200.0, X_WT=X_TRACKER)
     write_pose_stream(tmp_path / "streams" / "seed1.csv", stream)

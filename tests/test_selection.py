@@ -8,12 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from legato_drake import evaluation
 from legato_drake.errors import ConfigError
-from legato_drake.evaluation import evaluate
 from legato_drake.learning.checkpoint import load_checkpoint
 from legato_drake.learning.train import train
-from legato_drake.selection import SELECT_SEED0, candidates, select_checkpoint
+from legato_drake.pipelines import evaluate as evaluation
+from legato_drake.pipelines.evaluate import TrialJob, evaluate
+from legato_drake.pipelines.selection import SELECT_SEED0, candidates, select_checkpoint
 from tests.learning_helpers import synthetic_dataset, tiny_config
 
 
@@ -36,16 +36,17 @@ def test_the_most_successful_candidate_is_selected_and_its_seeds_are_walled_off(
         run, monkeypatch):
     seen = []
 
-    def fake_trial(job: dict) -> dict:
-        seen.append(job["seed"])
-        step = load_checkpoint(job["checkpoint"]).step
-        ok = job["seed"] - SELECT_SEED0 < {2: 1, 4: 3, 6: 2}[step]
-        return {"method": job["method"], "embodiment": job["embodiment"],
-                "task": job["task"], "trial": job["trial"], "seed": job["seed"],
-                "success": ok, "reason": "" if ok else "fake", "success_time": 1.0,
-                "episode_time": 2.0, "wall_time": 0.1, "html": None}
+    def fake_trial(job: TrialJob) -> dict:
+        s = job.scenario
+        seen.append(s.seed)
+        step = load_checkpoint(s.checkpoint).step
+        ok = s.seed - SELECT_SEED0 < {2: 1, 4: 3, 6: 2}[step]
+        return {"method": job.method, "embodiment": s.embodiment, "task": s.task,
+                "trial": job.trial, "seed": s.seed, "success": ok,
+                "reason": "" if ok else "fake", "success_time": 1.0, "episode_time": 2.0,
+                "wall_time": 0.1, "html": None}
 
-    monkeypatch.setattr(evaluation, "_run_trial", fake_trial)
+    monkeypatch.setattr(evaluation, "run_trial", fake_trial)
     summary = select_checkpoint(run, "lid", trials=4, progress=False)
     assert set(seen) == set(range(SELECT_SEED0, SELECT_SEED0 + 4))  # never evaluation seeds
     assert summary["selected"] == "step_000004.pt" and summary["step"] == 4

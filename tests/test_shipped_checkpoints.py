@@ -6,9 +6,9 @@ from __future__ import annotations
 import pytest
 
 from legato_drake.episode import run_episode
-from legato_drake.evaluation import EVAL_SEED0
 from legato_drake.learning.checkpoint import load_checkpoint
 from legato_drake.models import CHECKPOINTS_DIR, shipped_checkpoint
+from legato_drake.pipelines.evaluate import EVAL_SEED0
 from legato_drake.scenario import Scenario
 
 SHIPPED = sorted(CHECKPOINTS_DIR.glob("*.pt"))

@@ -15,12 +15,11 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
+from legato_drake.embodiments.spot import BODY_JOINTS, LEG_JOINTS
 from legato_drake.systems.spot_legs import (
-    BODY_JOINTS,
-    LEG_JOINTS,
     LEGS,
     NOMINAL_BODY_POSE,
-    SpotLegGeometry,
+    SPOT_LEG_GEOMETRY,
     SpotLegIK,
     body_rotation,
     leg_ik,
@@ -30,7 +29,8 @@ from legato_drake.systems.spot_legs import (
 
 BODY_LOWER = np.array([-0.3, -0.1, 0.3, -math.pi / 16, -math.pi / 16, -math.pi / 16])
 BODY_UPPER = np.array([-0.1, 0.1, 0.5, math.pi / 16, math.pi / 16, math.pi / 16])
-GEOMETRY = SpotLegGeometry()
+"""The body joints' limits (SPEC §4: +-0.1 m, +-pi/16 around the nominal pose)."""
+GEOMETRY = SPOT_LEG_GEOMETRY
 
 
 class Spot:

@@ -20,7 +20,7 @@ from legato_drake.data.layout import (
     validate_file,
 )
 from legato_drake.files import atomic_write_bytes
-from legato_drake.report import format_table
+from legato_drake.summary import format_table
 
 ACTION_NAMES = ("dx", "dy", "dz", "droll", "dpitch", "dyaw", "grasp")
 

@@ -17,6 +17,9 @@ first time stamp (lerp for positions, slerp for orientations, nearest sample for
 each resampled pose is expressed relative to the stream's first pose, and the first pose is
 mapped onto the project's start pose: ``Q_k = START_POSE * X_0^-1 * X_k``. The tracker's world
 frame therefore does not matter, only the gripper's motion relative to where it started.
+
+Synthetic recordings, made by simulating the scripted demonstrator:
+``legato_drake.pipelines.pose_streams.scripted_pose_stream``.
 """
 
 from __future__ import annotations
@@ -174,14 +177,21 @@ def check_columns(columns: dict[str, np.ndarray], where: str) -> None:
                            f"{g[bad[0]]!r}")
 
 
-def load_pose_stream(path: str | Path) -> PoseStream:
-    """Reads and checks a pose stream file (CSV or NPZ); errors name the file and column."""
+def check_pose_stream_file(path: str | Path) -> Path:
+    """Checks, without reading it, that a pose stream file exists and has a known suffix
+    (what a scenario's validation checks; the file is parsed where the diagram is built)."""
     path = Path(path)
     if not path.is_file():
         raise PoseStreamError(f"pose stream file not found: {path}")
     if path.suffix.lower() not in SUFFIXES:
         raise _fail(str(path), f"unknown format {path.suffix!r}; expected "
                                f"{' or '.join(SUFFIXES)}")
+    return path
+
+
+def load_pose_stream(path: str | Path) -> PoseStream:
+    """Reads and checks a pose stream file (CSV or NPZ); errors name the file and column."""
+    path = check_pose_stream_file(path)
     try:
         columns, meta = _read_csv(path) if path.suffix.lower() == ".csv" else _read_npz(path)
     except UnicodeDecodeError:
@@ -322,28 +332,3 @@ def script_to_stream(poses: np.ndarray, grasps: np.ndarray,
     return make_pose_stream(times, np.array([pose_to_vector(X) for X in frames]),
                             np.array(gs), seed=seed, task=task)
 
-
-def scripted_pose_stream(task: str, seed: int, embodiment: str = "abstract",
-                         rate: float | None = None, X_WT: RigidTransform | None = None
-                         ) -> PoseStream:
-    """A synthetic recording: the scripted demonstrator's commanded poses for ``seed`` (as
-    ``script_to_stream`` makes them), tagged with the seed and task so that a replay runs in
-    the same scene. Simulates only the homing phase (the plan is made when it ends)."""
-    from pydrake.systems.analysis import Simulator
-
-    from legato_drake.diagram import build_diagram
-    from legato_drake.episode import initialize
-    from legato_drake.scenario import Scenario
-
-    scenario = Scenario(embodiment=embodiment, task=task, seed=seed)
-    scenario.camera.enabled = False
-    built = build_diagram(scenario.validate())
-    simulator = Simulator(built.diagram)
-    initialize(built, simulator)
-    simulator.AdvanceTo(conventions.HOMING_DURATION + conventions.CONTROLLER_OFFSET + 1e-4)
-    script = built.controller.script(
-        built.controller.GetMyContextFromRoot(simulator.get_context()))
-    if script is None:
-        raise RuntimeError("the scripted demonstrator made no plan")
-    return script_to_stream(script.poses, script.grasps, rate=rate, X_WT=X_WT, seed=seed,
-                            task=task)

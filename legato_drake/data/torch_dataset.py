@@ -10,7 +10,8 @@ robomimic) a window that runs past the end of its demo is padded by repeating th
 and ``pad_mask`` is False on the padding; without it, windows lie inside demos (demos shorter
 than ``seq_length`` are skipped). Images ``left_gray``/``right_gray`` come channels-first,
 ``(L, 1, H, W)``: uint8 in [0, 255] with ``image_dtype="uint8"``, float32 in [0, 1] with
-``"float"`` (default). Low-dim observations are float32; derived ones (``data.derived``, e.g.
+``"float"`` (default), by ``image_to_tensor``, the preprocessing the policy also sees at
+rollout. Low-dim observations are float32; derived ones (``data.derived``, e.g.
 ``object_in_tcp``) are computed from the stored ones on load.
 
 The file is validated on load (layout, format version, NaNs, masks, the requested keys) and
@@ -42,6 +43,18 @@ from legato_drake.data.layout import (
 )
 
 SPLITS = ("train", "valid", "all")
+IMAGE_DTYPES = ("uint8", "float")
+
+
+def image_to_tensor(image: np.ndarray, dtype: str = "float") -> torch.Tensor:
+    """The one image preprocessing of training and rollout: uint8 grayscale images
+    (..., H, W, 1), as recorded and as the cameras render them, -> channels-first
+    (..., 1, H, W) tensors: float32 in [0, 1] (``dtype="float"``) or uint8 (``"uint8"``).
+    ``DemoSequenceDataset`` returns its images through it, and the policy controller feeds
+    the cameras' images to the policy through it (``image_to_tensor``)."""
+    array = np.ascontiguousarray(np.moveaxis(np.asarray(image, dtype=np.uint8), -1, -3))
+    tensor = torch.from_numpy(array)
+    return tensor.float() / 255.0 if dtype == "float" else tensor
 
 
 class DemoSequenceDataset(Dataset):
@@ -54,7 +67,7 @@ class DemoSequenceDataset(Dataset):
             raise DatasetError(f"seq_length must be at least 1, got {seq_length}")
         if split not in SPLITS:
             raise DatasetError(f"unknown split {split!r}; valid values: {', '.join(SPLITS)}")
-        if image_dtype not in ("uint8", "float"):
+        if image_dtype not in IMAGE_DTYPES:
             raise DatasetError(f"image_dtype must be 'uint8' or 'float', got {image_dtype!r}")
         self.path = Path(path)
         self.obs_keys = tuple(obs_keys)
@@ -141,8 +154,7 @@ class DemoSequenceDataset(Dataset):
             obs[key] = torch.from_numpy(arrays[f"obs/{key}"][start:stop][steps])
         for key in self._image_keys:
             frames = self._images(name, key, start, stop)[steps]  # (L, H, W, 1)
-            image = torch.from_numpy(np.ascontiguousarray(frames.transpose(0, 3, 1, 2)))
-            obs[key] = image.float() / 255.0 if self.image_dtype == "float" else image
+            obs[key] = image_to_tensor(frames, self.image_dtype)  # (L, 1, H, W)
         return {
             "obs": obs,
             "actions": torch.from_numpy(arrays["actions"][start:stop][steps]),

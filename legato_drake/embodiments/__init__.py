@@ -1,19 +1,16 @@
-"""Registry of embodiments: each robot is data (an ``Embodiment``), added by one function."""
+"""Registry of embodiments: each robot is data (an ``Embodiment``, ``legato_drake/robot_types.py``),
+added to a plant by one function (``add_embodiment``)."""
 
 from __future__ import annotations
 
 from legato_drake.embodiments.abstract import ABSTRACT
-from legato_drake.embodiments.base import (
-    Embodiment,
-    IkSettings,
-    RobotHandles,
-    add_embodiment,
-)
+from legato_drake.embodiments.base import add_embodiment
 from legato_drake.embodiments.google_robot import GOOGLE_ROBOT
 from legato_drake.embodiments.gr1 import GR1
 from legato_drake.embodiments.panda import PANDA
 from legato_drake.embodiments.spot import SPOT
 from legato_drake.errors import unknown_name
+from legato_drake.robot_types import Embodiment, IkSettings, LegFollower, RobotHandles
 
 EMBODIMENTS: dict[str, Embodiment] = {
     e.name: e for e in (ABSTRACT, PANDA, SPOT, GOOGLE_ROBOT, GR1)}
@@ -36,5 +33,5 @@ def get_embodiment(name: str) -> Embodiment:
         raise unknown_name("embodiment", name, EMBODIMENTS) from None
 
 
-__all__ = ["EMBODIMENTS", "Embodiment", "IkSettings", "RobotHandles", "add_embodiment",
-           "get_embodiment", "resolve_embodiment"]
+__all__ = ["EMBODIMENTS", "Embodiment", "IkSettings", "LegFollower", "RobotHandles",
+           "add_embodiment", "get_embodiment", "resolve_embodiment"]

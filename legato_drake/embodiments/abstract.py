@@ -12,7 +12,8 @@ from __future__ import annotations
 from pydrake.math import RigidTransform, RollPitchYaw
 
 from legato_drake import conventions
-from legato_drake.embodiments.base import Embodiment, IkSettings
+from legato_drake.dimensions import GRIPPER_TCP_X
+from legato_drake.robot_types import Embodiment, IkSettings
 
 _JOINTS = ("abstract_x", "abstract_y", "abstract_z",
            "abstract_roll", "abstract_pitch", "abstract_yaw")
@@ -26,7 +27,7 @@ ABSTRACT = Embodiment(
     base_pose=RigidTransform(),
     mount_frame="abstract_mount",
     # The TCP is 0.14 m in front of the gripper base: put it on the joints' origin.
-    X_mount_gripper=RigidTransform([-0.14, 0.0, 0.0]),
+    X_mount_gripper=RigidTransform([-GRIPPER_TCP_X, 0.0, 0.0]),
     home=dict(zip(_JOINTS, [*_start.translation(), *_rpy], strict=True)),
     pd_gains={**{j: (3000.0, 120.0) for j in _JOINTS[:3]},
               **{j: (60.0, 2.0) for j in _JOINTS[3:]}},

@@ -1,15 +1,14 @@
-"""What an embodiment is (data, not code paths) and how one is added to a plant.
+"""How an embodiment is added to a plant: ``add_embodiment``.
 
-An embodiment says which model to load, where it stands, which of its frames holds the LEGATO
-gripper (the mount transform: the robot holds the gripper rigidly, as the reference does), its
-home posture, its joint PD gains and its IK settings. Everything the policy sees is the gripper;
-only this module, the IK and the PD know the robot.
+An embodiment (``robot_types.Embodiment``: data, not code paths) says which model to load,
+where it stands, which of its frames holds the LEGATO gripper (the mount transform: the robot
+holds the gripper rigidly, as the reference does), its home posture, its joint PD gains, its
+IK settings and its followers. Everything the policy sees is the gripper; only the
+embodiments, the IK, the followers and the PD know the robot. The types are re-exported here
+from ``legato_drake.robot_types``, where the systems read them.
 """
 
 from __future__ import annotations
-
-from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw
@@ -30,119 +29,19 @@ from pydrake.multibody.tree import (
 
 from legato_drake import conventions
 from legato_drake.errors import ConfigError
+from legato_drake.leg_kinematics import LEGS
+from legato_drake.robot_types import (
+    BASE_AXES,
+    Embodiment,
+    IkSettings,
+    LegFollower,
+    OrientationTask,
+    RobotHandles,
+    base_home,
+)
 
-
-@dataclass(frozen=True)
-class OrientationTask:
-    """A secondary IK task: keep a frame of the robot at its home orientation (e.g. GR-1's
-    head level and looking forward while the waist moves)."""
-
-    frame: str
-    """Frame of the robot model."""
-    gain: float = 20.0
-    """Gain (1/s) on its orientation error."""
-    weight: float = 0.05
-    """Weight relative to the posture term; the gripper task comes strictly first."""
-
-
-@dataclass(frozen=True)
-class IkSettings:
-    """Gains and limits of the whole-body differential IK (SPEC §5)."""
-
-    tracking_gain: float = 24.0
-    """Gain (1/s) on the gripper pose error (position and rotation vector)."""
-    posture_gain: float = 2.0
-    """Gain (1/s) pulling the posture joints toward home, inside the task's null space."""
-    posture_joints: tuple[str, ...] = ()
-    """Joints the posture term acts on; empty means all controlled joints."""
-    posture_weight: float = 0.01
-    """Weight of the posture term relative to the orientation tasks, in the IK's second
-    stage (the null space of the gripper task)."""
-    posture_task_weight: float = 0.0
-    """Weight of the posture term in the gripper task's own stage, relative to tracking:
-    where joints are at their bounds, how much tracking the posture may cost (0: none,
-    strict priority). While no bound is active it costs none, whatever this weight."""
-    max_joint_speed: float = 2.5
-    """Joint speed bound (rad/s or m/s), applied to every controlled joint."""
-    max_joint_acceleration: float = 100.0
-    """Joint acceleration bound (rad/s^2 or m/s^2) between two IK steps."""
-    joint_speed_limits: dict[str, float] = field(default_factory=dict)
-    """Per-joint speed bounds that override ``max_joint_speed``."""
-    joint_acceleration_limits: dict[str, float] = field(default_factory=dict)
-    """Per-joint acceleration bounds that override ``max_joint_acceleration``."""
-    joint_velocity_weights: dict[str, float] = field(default_factory=dict)
-    """Per-joint weights (default 1) of the joint-space metric that resolves redundancy: the
-    IK picks the velocity of smallest weighted norm that tracks the target, so a joint with
-    weight 10 moves only where the others cannot do the job as cheaply (e.g. a slow mobile
-    base behind a fast arm). Tracking keeps priority; only the split between joints changes."""
-    joint_position_limits: dict[str, tuple[float, float]] = field(default_factory=dict)
-    """Per-joint position ranges, tighter than the model's (e.g. to keep a mobile base off
-    the table); the model's limits still apply."""
-    orientation_tasks: tuple[OrientationTask, ...] = ()
-    """Secondary orientation tasks."""
-
-
-@dataclass(frozen=True)
-class Embodiment:
-    """A robot that holds the LEGATO gripper."""
-
-    name: str
-    """Registry name, e.g. ``panda``."""
-    model: str
-    """Model URL (``package://legato_drake/...``) or file path (URDF/SDF)."""
-    base_frame: str
-    """Frame of the model that is welded to the world at ``base_pose``."""
-    base_pose: RigidTransform
-    """Pose of ``base_frame`` in the world."""
-    mount_frame: str
-    """Frame of the model to which the gripper base is welded."""
-    X_mount_gripper: RigidTransform
-    """Pose of the gripper's base frame in ``mount_frame``."""
-    home: dict[str, float]
-    """Joint positions of the home posture (joints not named stay at zero)."""
-    pd_gains: dict[str, tuple[float, float]]
-    """(kp, kd) of each actuated joint's PD, run by the plant at the physics rate."""
-    ik: IkSettings = field(default_factory=IkSettings)
-    description: str = ""
-    base_type: str = "fixed"
-    """``fixed``: ``base_frame`` is welded at ``base_pose``. ``planar`` (x, y, yaw) or
-    ``floating`` (x, y, z, roll, pitch, yaw): actuated virtual joints named ``base_<axis>``
-    carry ``base_frame``, with home at ``base_pose`` and ranges ``base_range`` around it.
-    (A model may also carry its own virtual base joints and use ``fixed``.)"""
-    base_range: dict[str, float] = field(default_factory=dict)
-    """Half-range of each virtual base joint around its home (m or rad), by axis name."""
-    base_gains: tuple[tuple[float, float], tuple[float, float]] = ((20000.0, 2000.0),
-                                                                   (5000.0, 500.0))
-    """(kp, kd) of the virtual base joints: translational, then rotational."""
-    ik_joints: tuple[str, ...] = ()
-    """The joints the whole-body IK drives; empty means every actuated joint. The others get
-    their targets from ``add_followers`` (e.g. Spot's legs from the body pose)."""
-    add_followers: Callable | None = None
-    """``add_followers(builder, plant, robot, ik_desired_state_port) -> (joints, port)``: adds
-    the systems that set the joints outside ``ik_joints`` and returns them with the output
-    port of their desired state ``[q; v]``."""
-    foot_frames: tuple[str, ...] = ()
-    """Frames that must stay put on the ground (their drift is reported)."""
-
-
-@dataclass
-class RobotHandles:
-    """What ``add_embodiment`` put in the plant: the handles every system needs."""
-
-    embodiment: Embodiment
-    robot: ModelInstanceIndex
-    gripper: ModelInstanceIndex
-    tcp_frame: Frame
-    controlled_joints: list[Joint]
-    """The joints the IK drives, in actuator order."""
-    actuated_joints: list[Joint]
-    """Every actuated joint of the robot, in the order of its desired-state input port."""
-
-    @property
-    def home_positions(self) -> np.ndarray:
-        """Home posture of ``controlled_joints`` in port order."""
-        home = {**self.embodiment.home, **base_home(self.embodiment)}
-        return np.array([home.get(j.name(), 0.0) for j in self.controlled_joints])
+__all__ = ["BASE_AXES", "Embodiment", "IkSettings", "LegFollower", "OrientationTask",
+           "RobotHandles", "actuators_of", "add_embodiment", "base_home", "load_gripper"]
 
 
 def load_gripper(plant: MultibodyPlant, parser: Parser) -> ModelInstanceIndex:
@@ -215,23 +114,25 @@ def add_embodiment(plant: MultibodyPlant, parser: Parser, emb: Embodiment) -> Ro
                           f"{sorted(unknown)}; actuated joints: {sorted(names)}")
     for frame in emb.foot_frames:
         _frame(plant, frame, robot, emb, "foot_frames")
-    controlled = [j for j in joints if not emb.ik_joints or j.name() in emb.ik_joints]
+    followed = set(emb.follower_joints())
+    ik_joints = set(emb.ik_joints) or names - followed
+    if emb.leg_follower is not None:
+        _check_leg_follower(emb, emb.leg_follower, names, ik_joints)
+    driven_by_both = sorted(ik_joints & followed)
+    if driven_by_both:
+        raise ConfigError(f"embodiment {emb.name!r}: joint(s) {driven_by_both} are in "
+                          "ik_joints and driven by the leg follower; a joint has one driver")
+    undriven = sorted(names - ik_joints - followed)
+    if undriven:
+        raise ConfigError(f"embodiment {emb.name!r}: joint(s) {undriven} are driven by "
+                          "neither the IK (ik_joints) nor a follower")
+    controlled = [j for j in joints if j.name() in ik_joints]
     tcp = plant.GetFrameByName(conventions.GRIPPER_TCP_FRAME, gripper)
     return RobotHandles(emb, robot, gripper, tcp, controlled, joints)
 
 
-BASE_AXES = {"planar": ("x", "y", "yaw"), "floating": ("x", "y", "z", "roll", "pitch", "yaw")}
-"""Virtual base joints of each base type, in chain order from the world."""
 _UNIT = {"x": [1.0, 0, 0], "y": [0, 1.0, 0], "z": [0, 0, 1.0],
          "roll": [1.0, 0, 0], "pitch": [0, 1.0, 0], "yaw": [0, 0, 1.0]}
-
-
-def base_home(emb: Embodiment) -> dict[str, float]:
-    """Home positions of the virtual base joints: the components of ``base_pose``."""
-    xyz = emb.base_pose.translation()
-    rpy = RollPitchYaw(emb.base_pose.rotation()).vector()
-    values = dict(zip(("x", "y", "z", "roll", "pitch", "yaw"), [*xyz, *rpy], strict=True))
-    return {f"base_{axis}": values[axis] for axis in BASE_AXES.get(emb.base_type, ())}
 
 
 def _add_virtual_base(plant: MultibodyPlant, robot: ModelInstanceIndex,
@@ -269,6 +170,28 @@ def _add_virtual_base(plant: MultibodyPlant, robot: ModelInstanceIndex,
         joint.set_default_positions([home[name]])
         parent = body.body_frame()
     return parent
+
+
+def _check_leg_follower(emb: Embodiment, follower: LegFollower, names: set[str],
+                        ik_joints: set[str]) -> None:
+    """The follower's joints exist and have the roles it needs (ConfigError otherwise)."""
+    where = f"embodiment {emb.name!r}: leg_follower"
+    for field_name, joints, count in (("body_joints", follower.body_joints, 6),
+                                      ("leg_joints", follower.leg_joints, 3 * len(LEGS))):
+        if len(joints) != count or len(set(joints)) != count:
+            raise ConfigError(f"{where}.{field_name}: expected {count} distinct joint names, "
+                              f"got {list(joints)}")
+        unknown = sorted(set(joints) - names)
+        if unknown:
+            raise ConfigError(f"{where}.{field_name} names unknown joint(s) {unknown}; "
+                              f"actuated joints: {sorted(names)}")
+    not_ik = sorted(set(follower.body_joints) - ik_joints)
+    if not_ik:
+        raise ConfigError(f"{where}.body_joints {not_ik} are not driven by the IK (the legs "
+                          "follow the IK's body targets): add them to ik_joints")
+    shared = sorted(set(follower.body_joints) & set(follower.leg_joints))
+    if shared:
+        raise ConfigError(f"{where}: joint(s) {shared} are both body_joints and leg_joints")
 
 
 def actuators_of(plant: MultibodyPlant, instance: ModelInstanceIndex) -> list[JointActuator]:

@@ -17,6 +17,22 @@ Example (paths are relative to the YAML file; every angle in degrees)::
          max_joint_speed: 2.5, max_joint_acceleration: 100,
          orientation_tasks: [{frame: head, gain: 20, weight: 0.05}]}   # optional
 
+A legged robot laid out as Spot (four 3-DoF legs: hip_x, hip_y, knee) can let its legs follow
+its body (``robot_types.LegFollower``): the IK then drives every other joint, and the legs get
+their targets from analytic leg IK of the body's desired pose, feet fixed on the ground::
+
+    base_type: floating                # or the model's own six body-pose joints
+    leg_follower:
+      body_joints: [base_x, base_y, base_z, base_roll, base_pitch, base_yaw]  # x y z r p y
+      leg_joints: [fl_hip_x, fl_hip_y, fl_knee, fr_hip_x, fr_hip_y, fr_knee,
+                   hl_hip_x, hl_hip_y, hl_knee, hr_hip_x, hr_hip_y, hr_knee]
+      geometry: {hip_x_offset: [0.29785, 0.055, 0], hip_y_offset: 0.110945,
+                 knee_offset: [0.025, -0.3205], lower_leg_length: 0.33,
+                 hip_x_limits: [-0.7854, 0.7854], hip_y_limits: [-0.8988, 2.2951],
+                 knee_limits: [-2.7929, -0.2471]}   # optional; defaults: Spot's (radians)
+      ground_z: 0.0                    # optional: height of the foot points
+    foot_frames: [fl_foot, fr_foot, hl_foot, hr_foot]   # optional: their drift is reported
+
 The gripper frame's +x is its approach direction and +z its "up" (camera side); ``mount``
 must put the gripper there on your robot. Loading checks the whole definition against the
 model (frames, joints, gains, types and ranges of every number) and every error names the
@@ -46,23 +62,24 @@ from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 
-from legato_drake.embodiments.base import (
+from legato_drake.embodiments.base import actuators_of, add_embodiment
+from legato_drake.errors import ConfigError, yaml_problem
+from legato_drake.files import atomic_write_text, read_text_file
+from legato_drake.leg_kinematics import LEGS, LegGeometry
+from legato_drake.models import add_package
+from legato_drake.robot_types import (
     BASE_AXES,
     Embodiment,
     IkSettings,
+    LegFollower,
     OrientationTask,
-    actuators_of,
-    add_embodiment,
 )
-from legato_drake.errors import ConfigError, yaml_problem
-from legato_drake.files import atomic_write_text, read_text_file
-from legato_drake.models import add_package
 
 log = logging.getLogger(__name__)
 
 REQUIRED = ("name", "model", "base_frame", "mount_frame", "pd_gains")
 OPTIONAL = ("base_type", "base_pose", "base_range", "base_gains", "mount", "home", "ik",
-            "description")
+            "leg_follower", "foot_frames", "description")
 IK_SCALARS = {  # field: smallest allowed value, and whether it is allowed itself
     "tracking_gain": (0.0, False), "posture_gain": (0.0, True),
     "posture_weight": (0.0, True), "posture_task_weight": (0.0, True),
@@ -72,6 +89,11 @@ IK_TABLES = ("joint_speed_limits", "joint_acceleration_limits", "joint_velocity_
 """The IK's per-joint tables of positive numbers."""
 IK_FIELDS = (*IK_SCALARS, "posture_joints", *IK_TABLES, "joint_position_limits",
              "orientation_tasks")
+LEG_FOLLOWER_FIELDS = ("body_joints", "leg_joints", "geometry", "ground_z")
+LEG_GEOMETRY_VECTORS = {"hip_x_offset": 3, "knee_offset": 2}
+"""The leg geometry's vector fields and their lengths."""
+LEG_GEOMETRY_LENGTHS = ("hip_y_offset", "lower_leg_length")
+LEG_GEOMETRY_LIMITS = ("hip_x_limits", "hip_y_limits", "knee_limits")
 MOVABLE_JOINTS = ("revolute", "prismatic")
 """Drake joint types that a URDF without transmissions gets actuated (continuous joints
 are revolute in Drake)."""
@@ -139,6 +161,10 @@ def _parse(raw: object, folder: Path) -> Embodiment:
     extra = {}
     if raw.get("base_gains") is not None:
         extra["base_gains"] = _base_gains(raw["base_gains"], base_type)
+    if raw.get("leg_follower") is not None:
+        extra["leg_follower"] = _leg_follower(raw["leg_follower"])
+    if raw.get("foot_frames") is not None:
+        extra["foot_frames"] = _names(raw["foot_frames"], "foot_frames", "frame")
     gains = _mapping(raw, "pd_gains")
     default = gains.pop("default", None)
     pd_gains = {_string(j, "pd_gains (a joint name)"): _gain_pair(v, f"pd_gains.{j}")
@@ -308,6 +334,69 @@ def _ik_settings(raw: dict) -> IkSettings:
         else:  # orientation_tasks
             values[key] = _orientation_tasks(value)
     return IkSettings(**values)
+
+
+def _names(value: object, where: str, what: str = "joint", count: int | None = None,
+           order: str = "") -> tuple[str, ...]:
+    """A list of ``count`` (any number if None) distinct names (``order``: how they go)."""
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise ConfigError(f"{where}: expected a list of {what} names, got {_short(value)}")
+    if count is not None and len(value) != count:
+        raise ConfigError(f"{where}: expected {count} {what} names{order}, got {len(value)}")
+    if len(set(value)) != len(value):
+        raise ConfigError(f"{where}: names a {what} twice: {_short(value)}")
+    return tuple(value)
+
+
+def _leg_follower(value: object) -> LegFollower:
+    """``leg_follower: {body_joints, leg_joints, geometry, ground_z}`` (the last two
+    optional); the joints are checked against the model later, by ``add_embodiment``."""
+    if not isinstance(value, dict):
+        raise ConfigError("leg_follower: expected a mapping {body_joints: [...], leg_joints: "
+                          f"[...], geometry: {{...}}, ground_z: Z}}, got {_short(value)}")
+    unknown = set(value) - set(LEG_FOLLOWER_FIELDS)
+    if unknown:
+        raise ConfigError(f"leg_follower: unknown field(s) {sorted(map(str, unknown))}; valid "
+                          f"fields: {', '.join(LEG_FOLLOWER_FIELDS)}")
+    missing = [k for k in ("body_joints", "leg_joints") if value.get(k) is None]
+    if missing:
+        raise ConfigError(f"leg_follower: missing required field(s) {missing}")
+    fields: dict[str, object] = {
+        "body_joints": _names(value["body_joints"], "leg_follower.body_joints", count=6,
+                              order=" (x, y, z, roll, pitch, yaw)"),
+        "leg_joints": _names(value["leg_joints"], "leg_follower.leg_joints",
+                             count=3 * len(LEGS),
+                             order=f" (legs {', '.join(LEGS)}, each hip_x, hip_y, knee)")}
+    if value.get("geometry") is not None:
+        fields["geometry"] = _leg_geometry(value["geometry"])
+    if "ground_z" in value:
+        fields["ground_z"] = _number(value["ground_z"], "leg_follower.ground_z")
+    return LegFollower(**fields)
+
+
+def _leg_geometry(value: object) -> LegGeometry:
+    """The legs' kinematics (metres) and joint limits (radians); unnamed fields: Spot's."""
+    valid = (*LEG_GEOMETRY_VECTORS, *LEG_GEOMETRY_LENGTHS, *LEG_GEOMETRY_LIMITS)
+    if not isinstance(value, dict):
+        raise ConfigError(f"leg_follower.geometry: expected a mapping of {', '.join(valid)}, "
+                          f"got {_short(value)}")
+    unknown = set(value) - set(valid)
+    if unknown:
+        raise ConfigError(f"leg_follower.geometry: unknown field(s) "
+                          f"{sorted(map(str, unknown))}; valid fields: {', '.join(valid)}")
+    fields: dict[str, object] = {}
+    for key, item in value.items():
+        where = f"leg_follower.geometry.{key}"
+        if key in LEG_GEOMETRY_VECTORS:
+            size = LEG_GEOMETRY_VECTORS[key]
+            if not isinstance(item, list) or len(item) != size:
+                raise ConfigError(f"{where}: expected {size} numbers, got {_short(item)}")
+            fields[key] = tuple(_number(x, f"{where}[{i}]") for i, x in enumerate(item))
+        elif key in LEG_GEOMETRY_LENGTHS:
+            fields[key] = _number(item, where, low=0.0, inclusive=key == "hip_y_offset")
+        else:
+            fields[key] = _range(item, where)
+    return LegGeometry(**fields)
 
 
 def _orientation_tasks(value: object) -> tuple[OrientationTask, ...]:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from pydrake.math import RigidTransform, RotationMatrix
 
-from legato_drake.embodiments.base import Embodiment, IkSettings
+from legato_drake.robot_types import Embodiment, IkSettings
 
 _BASE = ("base_x", "base_y", "base_yaw")
 _ARM = ("joint_torso", "joint_shoulder", "joint_bicep", "joint_elbow", "joint_forearm",

@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw
 
-from legato_drake.embodiments.base import Embodiment, IkSettings, OrientationTask
+from legato_drake.dimensions import GR1_PELVIS_HEIGHT
+from legato_drake.robot_types import Embodiment, IkSettings, OrientationTask
 
 _WAIST = ("waist_yaw", "waist_pitch", "waist_roll")
 _ARM = ("r_shoulder_pitch", "r_shoulder_roll", "r_shoulder_yaw", "r_elbow_pitch",
@@ -26,7 +27,7 @@ GR1 = Embodiment(
     name="gr1",
     model="package://legato_drake/gr1.urdf",
     base_frame="pelvis",
-    base_pose=RigidTransform([-0.1, 0.0, 0.88]),
+    base_pose=RigidTransform([-0.1, 0.0, GR1_PELVIS_HEIGHT]),  # the soles on the floor
     mount_frame="r_hand_tool",
     # The gripper faces +x pitched 35 deg down at the home posture: the wrist's roll and
     # pitch (+-0.61 rad) then cover both the level start pose and the downward grasps.

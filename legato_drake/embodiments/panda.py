@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from pydrake.math import RigidTransform, RotationMatrix
 
-from legato_drake.embodiments.base import Embodiment, IkSettings
+from legato_drake.robot_types import Embodiment, IkSettings
 
 _JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 _HOME = np.array([-0.125, 0.2, -0.125, -0.7, 0.75, 0.5, -0.666]) * np.pi

@@ -2,7 +2,8 @@
 
 A checkpoint is a ``torch.save``d dict written atomically (a reader never sees half a file)::
 
-    {"format": "legato_drake.checkpoint", "version": 1, "config": {...LearningConfig...},
+    {"format": "legato_drake.checkpoint", "version": 1, "algo": str (the policy family),
+     "config": {...LearningConfig...},
      "stats": {key: {"mean": [...], "std": [...]}}, "step": int, "best_valid": float,
      "model": state_dict, "optimizer": state_dict | None, "train_seeds": [int, ...],
      "data": str (the dataset it was trained on),
@@ -17,11 +18,12 @@ from pathlib import Path
 
 import torch
 
-from legato_drake.errors import LegatoError
+from legato_drake.errors import ConfigError, LegatoError
 from legato_drake.files import atomic_write_bytes
 from legato_drake.learning.config import LearningConfig, config_from_dict
+from legato_drake.learning.family import PolicyFamily
 from legato_drake.learning.normalization import stats_from_lists, stats_to_lists
-from legato_drake.learning.policies import RecurrentGMMPolicy
+from legato_drake.learning.registry import build_policy
 
 FORMAT = "legato_drake.checkpoint"
 VERSION = 1
@@ -37,7 +39,7 @@ class Checkpoint:
 
     config: LearningConfig
     stats: dict
-    policy: RecurrentGMMPolicy
+    policy: PolicyFamily
     step: int = 0
     best_valid: float = float("inf")
     optimizer: dict | None = None
@@ -57,7 +59,8 @@ def save_checkpoint(path: str | Path, ckpt: Checkpoint,
                     optimizer: torch.optim.Optimizer | None = None) -> None:
     """Writes ``ckpt`` (with ``optimizer``'s state if given) to ``path`` atomically."""
     payload = {
-        "format": FORMAT, "version": VERSION, "config": ckpt.config.to_dict(),
+        "format": FORMAT, "version": VERSION, "algo": ckpt.config.algo,
+        "config": ckpt.config.to_dict(),
         "stats": stats_to_lists(ckpt.stats), "step": int(ckpt.step),
         "best_valid": float(ckpt.best_valid),
         "model": {k: v.detach().cpu() for k, v in ckpt.policy.state_dict().items()},
@@ -71,7 +74,9 @@ def save_checkpoint(path: str | Path, ckpt: Checkpoint,
 
 
 def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
-    """Reads a checkpoint and rebuilds its policy (in eval mode, on ``device``)."""
+    """Reads a checkpoint and rebuilds its policy through the family registry (in eval mode,
+    on ``device``); a family that is not registered is an error naming the registered
+    ones."""
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"checkpoint not found: {path}")
@@ -86,7 +91,10 @@ def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
                               f"{VERSION}")
     config = config_from_dict(payload["config"], str(path))
     stats = stats_from_lists(payload["stats"])
-    policy = RecurrentGMMPolicy(config, stats).to(device)
+    try:
+        policy = build_policy(config, stats).to(device)
+    except ConfigError as e:
+        raise CheckpointError(f"{path}: {e}") from None
     policy.load_state_dict(payload["model"])
     policy.eval()
     return Checkpoint(config, stats, policy, payload["step"], payload["best_valid"],

@@ -18,7 +18,6 @@ from pydrake.common.yaml import yaml_dump, yaml_load
 from legato_drake.data.layout import HISTORY, HISTORY_KEYS
 from legato_drake.errors import ConfigError
 
-ALGOS = ("legato", "bc_rnn")
 OBS_MODES = ("image", "state")
 ENCODERS = ("resnet18", "small")
 STATE_KEYS = ("tcp_commanded", "tcp_measured", "object", "object_in_tcp", "fingers")
@@ -33,8 +32,10 @@ class LearningConfig:
     name: str = "legato"
     """Run / method name (used as the method name in evaluation tables by default)."""
     algo: str = "legato"
-    """``legato``: GMM over the 6 pose-delta dims + a 2-class grasp head; ``bc_rnn``: one GMM
-    over all 7 action dims, grasp thresholded at 0.5."""
+    """The policy family (``learning.registry``): ``legato``, a GMM over the 6 pose-delta dims
+    + a 2-class grasp head; ``bc_rnn``, one GMM over all 7 action dims, grasp thresholded at
+    0.5. Checked against the registry where a policy is built (a config knows no
+    families)."""
     obs_mode: str = "image"
     """``image``: the two gripper images + pose-delta history (the paper's); ``state``: the
     privileged state features ``state_keys`` + pose-delta history (fast, for CPU)."""
@@ -114,7 +115,7 @@ class LearningConfig:
         def bad(name: str, message: str) -> ConfigError:
             return ConfigError(f"{name}{place} {message}")
 
-        for name, allowed in (("algo", ALGOS), ("obs_mode", OBS_MODES), ("encoder", ENCODERS)):
+        for name, allowed in (("obs_mode", OBS_MODES), ("encoder", ENCODERS)):
             if getattr(self, name) not in allowed:
                 raise bad(name, f"must be one of {', '.join(allowed)}; got "
                                 f"{getattr(self, name)!r}")

@@ -3,22 +3,14 @@
 ``ImageEncoder`` maps one 1-channel image (B, 1, H, W) in [0, 1] to a feature (B, feature_dim):
 conv trunk (ResNet-18 without its pooling and classifier, or a small stride-2 stack), a 1x1
 conv to K keypoint maps, a spatial softmax giving each map's expected (x, y) in [-1, 1], and a
-linear layer from the 2K coordinates (robomimic's ``VisualCore``).
+linear layer from the 2K coordinates (robomimic's ``VisualCore``). The images reach it through
+``data.torch_dataset.image_to_tensor``, the one preprocessing of training and rollout.
 """
 
 from __future__ import annotations
 
-import numpy as np
 import torch
 from torch import nn
-
-
-def image_to_tensor(image: np.ndarray) -> torch.Tensor:
-    """The one image preprocessing of training and rollout: a uint8 (H, W, 1) (or (..., H, W,
-    1)) grayscale image -> float32 (..., 1, H, W) in [0, 1] (what ``DemoSequenceDataset``
-    returns with ``image_dtype="float"``)."""
-    array = np.ascontiguousarray(np.moveaxis(np.asarray(image, dtype=np.uint8), -1, -3))
-    return torch.from_numpy(array).float() / 255.0
 
 
 class BasicBlock(nn.Module):

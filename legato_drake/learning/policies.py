@@ -31,7 +31,7 @@ import torch.nn.functional as F  # noqa: N812 - the usual torch name
 from torch import distributions as D  # noqa: N812
 from torch import nn
 
-from legato_drake.data.layout import HISTORY, HISTORY_KEYS
+from legato_drake.data.layout import HISTORY, HISTORY_KEYS, IMAGE_KEYS
 from legato_drake.invariants import (
     gmm_mean_of_most_likely_mode,
     history_from_observations,
@@ -39,9 +39,9 @@ from legato_drake.invariants import (
 )
 from legato_drake.learning.config import LearningConfig
 from legato_drake.learning.encoders import ImageEncoder
+from legato_drake.learning.family import PolicyFamily, Stats
 from legato_drake.learning.normalization import Normalizer
 
-IMAGE_KEYS = ("left_gray", "right_gray")
 Hidden = tuple[torch.Tensor, torch.Tensor]
 
 
@@ -69,12 +69,25 @@ def _masked_mean(values: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
     return (values * mask).sum() / mask.sum().clamp(min=1.0)
 
 
-class RecurrentGMMPolicy(nn.Module):
-    """LEGATO (``algo: legato``) or BC-RNN (``algo: bc_rnn``); see the module docstring."""
+@dataclass(frozen=True)
+class RecurrentState:
+    """The rollout state of a recurrent policy."""
 
-    def __init__(self, config: LearningConfig, stats: Mapping[str, Mapping[str, np.ndarray]]):
-        super().__init__()
-        self.config = config
+    steps: int
+    """Actions taken since the episode began."""
+    hidden: tuple[np.ndarray, np.ndarray] | None
+    """The LSTM state (h, c); None at the start."""
+
+
+class RecurrentGMMPolicy(PolicyFamily):
+    """LEGATO (``algo: legato``) or BC-RNN (``algo: bc_rnn``); see the module docstring.
+    One action per ``act``; the LSTM state is reset every ``seq_length`` steps (the training
+    horizon)."""
+
+    loss_terms = ("nll", "ce", "invar", "total")
+
+    def __init__(self, config: LearningConfig, stats: Stats):
+        super().__init__(config, stats)
         self.image_keys = [k for k in config.obs_keys if k in IMAGE_KEYS]
         self.low_dim_keys = [k for k in config.obs_keys if k not in IMAGE_KEYS]
         missing = [k for k in (*self.low_dim_keys, "actions") if k not in stats]
@@ -189,10 +202,18 @@ class RecurrentGMMPolicy(nn.Module):
         total = cfg.nll_weight * nll + cfg.grasp_weight * ce + cfg.invariant_weight * invar
         return {"nll": nll, "ce": ce, "invar": invar, "total": total}
 
+    def initial_state(self) -> RecurrentState:
+        return RecurrentState(0, None)
+
     @torch.no_grad()
-    def act(self, obs: Mapping[str, torch.Tensor], hidden: Hidden | None = None
-            ) -> tuple[torch.Tensor, Hidden]:
+    def act(self, obs: Mapping[str, torch.Tensor], state: RecurrentState
+            ) -> tuple[torch.Tensor, RecurrentState]:
         """One rollout step: raw observations (B, ...) without a time axis -> the low-noise
-        action (B, 7) and the new RNN state."""
+        action (B, 1, 7) and the next state (the LSTM state starts afresh every
+        ``seq_length`` steps)."""
+        hidden = None
+        if state.hidden is not None and state.steps % self.config.seq_length != 0:
+            hidden = tuple(torch.from_numpy(h) for h in state.hidden)
         out, hidden = self({k: v[:, None] for k, v in obs.items()}, hidden)
-        return self.mode_action(out)[:, 0], hidden
+        return self.mode_action(out), RecurrentState(
+            state.steps + 1, tuple(h.numpy().copy() for h in hidden))

@@ -3,8 +3,9 @@
 ``train(config, data, out)`` writes into ``out``:
 
 * ``config.yaml``: the run's config (also inside every checkpoint);
-* ``log.csv``: one row per step (``step, nll, ce, invar, total, lr``) and, every
-  ``valid_every`` steps, the validation losses (``valid_*`` columns; empty otherwise),
+* ``log.csv``: one row per step (``step``, the family's loss terms, e.g. ``nll, ce, invar,
+  total`` for the recurrent GMM policies, and ``lr``) and, every ``valid_every`` steps, the
+  validation losses (``valid_*`` columns; empty otherwise),
   appended at every checkpoint (a resumed run first cuts it back to its checkpoint's step);
 * ``last.pt`` (every ``checkpoint_every`` steps and at the end) and ``best.pt`` (lowest
   validation total loss), each with the config, the normalisation statistics, the step and
@@ -40,14 +41,13 @@ from legato_drake.errors import ConfigError
 from legato_drake.files import atomic_write_text
 from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from legato_drake.learning.config import LearningConfig, config_from_dict, save_config
+from legato_drake.learning.family import PolicyFamily
 from legato_drake.learning.normalization import OBS_MIN_STD, compute_stats
-from legato_drake.learning.policies import RecurrentGMMPolicy
+from legato_drake.learning.registry import build_policy, check_algo
 from legato_drake.progress import progress_bar
 
 log = logging.getLogger(__name__)
 
-LOG_COLUMNS = ("step", "nll", "ce", "invar", "total", "lr",
-               "valid_nll", "valid_ce", "valid_invar", "valid_total")
 VALID_SEED = 7919
 """Seeds the (fixed) validation batches."""
 
@@ -126,21 +126,27 @@ def _read_log(path: Path, upto: int) -> list[dict]:
         return [row for row in csv.DictReader(f) if int(row["step"]) <= upto]
 
 
-def _write_log(path: Path, rows: list[dict]) -> None:
+def log_columns(policy: PolicyFamily) -> tuple[str, ...]:
+    """The training log's columns for ``policy``'s loss terms."""
+    terms = policy.loss_terms
+    return ("step", *terms, "lr", *(f"valid_{t}" for t in terms))
+
+
+def _write_log(path: Path, rows: list[dict], columns: tuple[str, ...]) -> None:
     """Rewrites the log with ``rows`` (atomically): once per run, to cut a resumed run's log
     back to its checkpoint's step."""
     buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=LOG_COLUMNS)
+    writer = csv.DictWriter(buffer, fieldnames=columns)
     writer.writeheader()
     writer.writerows(rows)
     atomic_write_text(path, buffer.getvalue())
 
 
-def _append_log(path: Path, rows: list[dict]) -> None:
+def _append_log(path: Path, rows: list[dict], columns: tuple[str, ...]) -> None:
     """Appends ``rows`` to the log (before the checkpoint of their last step is written, so a
     resume that cuts the log back to the checkpoint never loses or repeats a row)."""
     with open(path, "a", newline="") as f:
-        csv.DictWriter(f, fieldnames=LOG_COLUMNS).writerows(rows)
+        csv.DictWriter(f, fieldnames=columns).writerows(rows)
 
 
 def _tensorboard(out: Path):
@@ -151,7 +157,7 @@ def _tensorboard(out: Path):
     return SummaryWriter(str(out / "tensorboard"))
 
 
-def validation_losses(policy: RecurrentGMMPolicy, dataset: DemoSequenceDataset,
+def validation_losses(policy: PolicyFamily, dataset: DemoSequenceDataset,
                       config: LearningConfig, device: str) -> dict[str, float]:
     """Mean loss terms over ``valid_batches`` fixed batches of ``dataset``."""
     sampler = StepBatchSampler(len(dataset), config.batch_size, VALID_SEED, 0,
@@ -183,6 +189,7 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
         raise ConfigError(f"--out {out} already holds a training run (last.pt, best.pt or "
                           "log.csv): pass --resume to continue it, --overwrite to replace "
                           "it, or choose another --out")
+    check_algo(config.algo)
     data, out = Path(data), Path(out)
     if device.startswith("cuda") and not torch.cuda.is_available():
         raise ConfigError("--device cuda: no CUDA device is available")
@@ -213,7 +220,7 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
         ckpt.policy.train()
     else:
         stats = dataset_stats(data, config)
-        ckpt = Checkpoint(config, stats, RecurrentGMMPolicy(config, stats).to(device),
+        ckpt = Checkpoint(config, stats, build_policy(config, stats).to(device),
                           train_seeds=train_seeds, data=str(data))
     ckpt.config = config
     policy = ckpt.policy
@@ -224,7 +231,8 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
     out.mkdir(parents=True, exist_ok=True)
     save_config(config, out / "config.yaml")
     log_path = out / "log.csv"
-    _write_log(log_path, _read_log(log_path, ckpt.step))
+    columns = log_columns(policy)
+    _write_log(log_path, _read_log(log_path, ckpt.step), columns)
     rows: list[dict] = []  # not yet in the log file
     board = _tensorboard(out)
     sampler = StepBatchSampler(len(dataset), config.batch_size, config.seed, ckpt.step,
@@ -265,13 +273,13 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
             save_checkpoint(snapshot_path(out, ckpt.step),
                             dataclasses.replace(ckpt, optimizer=None))
         if ckpt.step % config.checkpoint_every == 0 or ckpt.step == total_steps:
-            _append_log(log_path, rows)
+            _append_log(log_path, rows, columns)
             rows.clear()
             save_checkpoint(last, ckpt, optimizer)
     bar.close()
     if board is not None:
         board.close()
-    _append_log(log_path, rows)
+    _append_log(log_path, rows, columns)
     if valid is None or not (out / "best.pt").is_file():
         save_checkpoint(out / "best.pt", ckpt, optimizer)
     save_checkpoint(last, ckpt, optimizer)

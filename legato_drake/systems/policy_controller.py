@@ -12,10 +12,10 @@ from pydrake.systems.framework import BasicVector, Context, LeafSystem, State
 
 from legato_drake import conventions
 from legato_drake.data.derived import VALUES_PER_BODY, read_observation
-from legato_drake.data.layout import HISTORY, HISTORY_KEYS
+from legato_drake.data.layout import HISTORY, HISTORY_KEYS, IMAGE_KEYS
+from legato_drake.data.torch_dataset import image_to_tensor
 from legato_drake.errors import ConfigError
 from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint
-from legato_drake.learning.encoders import image_to_tensor
 from legato_drake.systems.episode_recorder import EpisodeRecorder
 
 
@@ -24,13 +24,15 @@ class PolicyState:
     """What the controller carries from one step to the next (its abstract state)."""
 
     step: int
-    """Policy steps taken."""
-    hidden: tuple[np.ndarray, np.ndarray] | None
-    """The LSTM state (h, c), None right after a reset."""
+    """Controller steps taken."""
+    policy: object
+    """The policy family's own rollout state (opaque here; e.g. the LSTM state)."""
     history: np.ndarray
     """(2, 6) the pose deltas of the last two actions, oldest first (zeros at the start)."""
     action: tuple[float, ...]
     """The current action (7)."""
+    plan: tuple[tuple[float, ...], ...] = ()
+    """Actions of the last predicted chunk still to execute, next first."""
 
 
 class PolicyController(LeafSystem):
@@ -44,9 +46,12 @@ class PolicyController(LeafSystem):
     images (``image_to_tensor``: the preprocessing of training) or the privileged state
     features, computed by the ``EpisodeRecorder`` ``features`` itself (the very code that
     recorded the dataset) and ``data.derived.read_observation`` (the code that derives
-    observations for training). It runs the policy under ``torch.no_grad`` and outputs the
-    low-noise GMM mode. The LSTM state is reset every ``seq_length`` steps (the training
-    horizon).
+    observations for training). The policy (any ``learning.family.PolicyFamily``) predicts a
+    chunk of actions from the observation and its own rollout state, which the controller
+    keeps without looking into it; the controller executes the first ``execute_steps`` of
+    the chunk, one per step, then asks again (receding horizon). For the recurrent policies
+    the chunk is one action (the low-noise GMM mode) and the state is the LSTM's, reset every
+    ``seq_length`` steps (the training horizon).
 
     Input ports (by the policy's observation mode):
         image: left_gray, right_gray (numpy uint8 H x W x 1).
@@ -61,7 +66,8 @@ class PolicyController(LeafSystem):
     point (``evaluate``, a scenario, a notebook) computes the same actions bit for bit; None
     leaves it as it is.
 
-    State: abstract ``PolicyState`` (step, LSTM state, pose-delta history, action). The
+    State: abstract ``PolicyState`` (step, the policy's rollout state, pose-delta history,
+    action, the rest of the current chunk). The
     recorder's scratch context used to compute state features holds nothing between steps.
     """
 
@@ -77,15 +83,15 @@ class PolicyController(LeafSystem):
         ckpt = checkpoint if isinstance(checkpoint, Checkpoint) else load_checkpoint(checkpoint)
         self._policy = ckpt.policy.to("cpu").eval()
         self._config = ckpt.config
-        self._reset_every = ckpt.config.seq_length
         self._t_start = t_start
         self._images = {}
-        self._state_keys = [k for k in self._policy.low_dim_keys if k not in HISTORY_KEYS]
+        self._state_keys = [k for k in ckpt.config.obs_keys
+                            if k not in HISTORY_KEYS and k not in IMAGE_KEYS]
         self._features = features
         if ckpt.config.obs_mode == "image":
             blank = AbstractValue.Make(np.zeros((1, 1, 1), dtype=np.uint8))
             self._images = {k: self.DeclareAbstractInputPort(k, blank)
-                            for k in self._policy.image_keys}
+                            for k in ckpt.config.obs_keys if k in IMAGE_KEYS}
         else:
             if features is None:
                 raise ValueError("a state-mode policy needs the EpisodeRecorder 'features' "
@@ -103,7 +109,8 @@ class PolicyController(LeafSystem):
             self._commanded = self.DeclareVectorInputPort("X_WG_commanded", 7)
             self._scratch = features.CreateDefaultContext()
             features.get_action_input_port().FixValue(self._scratch, np.zeros(7))
-        initial = PolicyState(0, None, np.zeros((HISTORY, 6)), (0.0,) * 7)
+        initial = PolicyState(0, self._policy.initial_state(), np.zeros((HISTORY, 6)),
+                              (0.0,) * 7)
         self._state = self.DeclareAbstractState(AbstractValue.Make(initial))
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, t_start + offset, self._step)
         self.DeclareVectorOutputPort("action", 7, self._calc_action, {self.all_state_ticket()})
@@ -155,16 +162,16 @@ class PolicyController(LeafSystem):
 
     def _step(self, context: Context, state: State) -> None:
         current = self.policy_state(context)
-        hidden = None
-        if current.step % self._reset_every != 0 and current.hidden is not None:
-            hidden = tuple(torch.from_numpy(h) for h in current.hidden)
-        obs = self.observation(context, current.history)
-        with torch.no_grad():
-            action, hidden = self._policy.act(obs, hidden)
-        action = action[0].numpy().astype(float)
+        policy_state, plan = current.policy, current.plan
+        if not plan:
+            obs = self.observation(context, current.history)
+            with torch.no_grad():
+                chunk, policy_state = self._policy.act(obs, policy_state)
+            steps = max(1, min(self._policy.execute_steps, chunk.shape[1]))
+            plan = tuple(tuple(float(a) for a in row) for row in chunk[0, :steps].numpy())
+        action = np.asarray(plan[0])
         history = np.concatenate([current.history[1:], action[None, :6]])
-        new = PolicyState(current.step + 1, tuple(h.numpy().copy() for h in hidden), history,
-                          tuple(float(a) for a in action))
+        new = PolicyState(current.step + 1, policy_state, history, plan[0], plan[1:])
         state.get_mutable_abstract_state(self._state).set_value(new)
 
     def _calc_action(self, context: Context, output: BasicVector) -> None:

@@ -11,8 +11,8 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 from legato_drake import conventions
-from legato_drake.embodiments.base import RobotHandles
 from legato_drake.poses import pose_error
+from legato_drake.robot_types import RobotHandles
 
 
 @dataclass

@@ -14,8 +14,8 @@ from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 from legato_drake import conventions
-from legato_drake.embodiments.base import RobotHandles
 from legato_drake.poses import rotation_log
+from legato_drake.robot_types import RobotHandles
 
 
 @dataclass

@@ -18,6 +18,7 @@ from pydrake.multibody.tree import RigidBody
 from pydrake.systems.framework import Context
 
 from legato_drake import conventions
+from legato_drake.dimensions import STOVE_SIZE
 
 
 @dataclass
@@ -136,7 +137,7 @@ def add_table(plant: MultibodyPlant, parser: Parser, height: float) -> None:
 
 DROP = 0.001
 """Free objects start this far above their support and settle while the robot homes."""
-STOVE_HALF_HEIGHT = 0.01
+STOVE_HALF_HEIGHT = STOVE_SIZE[2] / 2
 
 
 def add_stove_and_pot(plant: MultibodyPlant, parser: Parser) -> tuple[RigidBody, RigidBody]:

@@ -45,6 +45,15 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
 
+from legato_drake.dimensions import (
+    CUP_HANDLE,
+    CUP_HANDLE_R,
+    CUP_R_OUT,
+    SHELF_BACK,
+    SHELF_BOARD,
+    SHELF_SIDE,
+    SHELF_SIZE,
+)
 from legato_drake.tasks.base import (
     SuccessReport,
     Task,
@@ -59,14 +68,16 @@ from legato_drake.tasks.base import (
 )
 
 TABLE_HEIGHT = 0.625
-SHELF_FLOOR = 0.035
+SHELF_FLOOR = SHELF_BOARD
 """Height of the shelf's floor (top of its bottom board) above the shelf's origin."""
-SHELF_INTERIOR_X = (-0.23, 0.23)
-SHELF_INTERIOR_Y = (-0.13, 0.15)
-"""The interior footprint in the shelf's frame; the open front is at y = 0.15."""
-CUP_RADIUS = 0.08
-HANDLE_HALF_WIDTH = 0.007
-HANDLE_RADIUS = 0.115
+SHELF_INTERIOR_X = (-(SHELF_SIZE[0] / 2 - SHELF_SIDE), SHELF_SIZE[0] / 2 - SHELF_SIDE)
+SHELF_INTERIOR_Y = (-SHELF_SIZE[1] / 2 + SHELF_BACK, SHELF_SIZE[1] / 2)
+"""The interior footprint in the shelf's frame, (-0.23, 0.23) x (-0.13, 0.15): between the
+side walls, from the back wall to the open front."""
+CUP_RADIUS = CUP_R_OUT
+HANDLE_HALF_WIDTH = CUP_HANDLE[1] / 2
+"""Half the handle bar's tangential width, across which the fingers close."""
+HANDLE_RADIUS = CUP_HANDLE_R
 
 CUP_X = (0.5425, 0.5825)
 CUP_Y = (0.08, 0.12)

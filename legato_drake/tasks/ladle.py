@@ -37,6 +37,7 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
 
+from legato_drake.dimensions import CASE_INTERIOR, LADLE_HANDLE, LADLE_SCOOP, LADLE_STICK
 from legato_drake.tasks.base import (
     DROP,
     SuccessReport,
@@ -53,12 +54,12 @@ from legato_drake.tasks.base import (
 )
 
 TABLE_HEIGHT = 0.625
-CASE_INTERIOR_HALF = (0.08, 0.13)
+CASE_INTERIOR_HALF = (CASE_INTERIOR[0] / 2, CASE_INTERIOR[1] / 2)
 """Half sizes of the case's interior footprint in its frame (x, y)."""
-LADLE_HALF_WIDTH = 0.02
+LADLE_HALF_WIDTH = LADLE_HANDLE[1] / 2
 """Half the handle's width (what the pads close on)."""
-LADLE_LENGTH = 0.26
-LADLE_SCOOP_HALF = 0.03
+LADLE_LENGTH = LADLE_HANDLE[0] + LADLE_STICK[0] + LADLE_SCOOP[0]
+LADLE_SCOOP_HALF = LADLE_SCOOP[1] / 2
 """Half the scoop's width and height bound the ladle's cross-section."""
 
 STOVE_X = 0.6

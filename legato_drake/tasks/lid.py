@@ -17,6 +17,7 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
 
+from legato_drake.dimensions import LID_HANDLE_BAR, LID_THICKNESS
 from legato_drake.tasks.base import (
     DROP,
     SuccessReport,
@@ -34,9 +35,10 @@ from legato_drake.tasks.base import (
 )
 
 TABLE_HEIGHT = 0.70
-POT_HEIGHT = 0.10
-LID_HALF_THICKNESS = 0.005
-HANDLE_HALF_WIDTH = 0.01
+LID_HALF_THICKNESS = LID_THICKNESS / 2
+HANDLE_HALF_WIDTH = LID_HANDLE_BAR[0] / 2
+"""Half the bar handle's width across which the fingers close (the pot's rim height comes
+from the model's ``pot_rim`` frame)."""
 
 
 class LidTask(Task):

@@ -1,12 +1,13 @@
 """Collecting a demonstration dataset: episodes in parallel, atomic and resumable.
 
-Each episode (one seed, or one pose-stream file) is recorded by a worker process and written
-atomically as its own small HDF5 *part* file into the sibling folder ``<out>.parts/`` (named by
-its key, e.g. ``seed_000042.hdf5``); failed episodes get a part too, so that they are not
-retried. When enough episodes are kept, the parts are merged into ``<out>`` (written
-atomically too), with a manifest of every seed tried, kept and failed (and why), and the parts
-folder is removed. Restarting an interrupted collection skips the parts already written, so
-no episode is lost or duplicated; asking an existing dataset for more episodes extends it.
+Each episode (one seed, or one pose-stream file) is a ``CollectJob``, recorded through the
+executor (in a worker process with ``workers`` > 1) and written atomically as its own small
+HDF5 *part* file into the sibling folder ``<out>.parts/`` (named by its key, e.g.
+``seed_000042.hdf5``); failed episodes get a part too, so that they are not retried. When
+enough episodes are kept, the parts are merged into ``<out>`` (written atomically too), with a
+manifest of every seed tried, kept and failed (and why), and the parts folder is removed.
+Restarting an interrupted collection skips the parts already written, so no episode is lost
+or duplicated; asking an existing dataset for more episodes extends it.
 
 Which seeds are kept does not depend on the number of workers or on interruptions: seeds are
 tried in order from ``seed0`` and the dataset holds the first ``episodes`` successful ones
@@ -15,11 +16,9 @@ tried in order from ``seed0`` and the dataset holds the first ``episodes`` succe
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import dataclasses
 import json
 import logging
-import multiprocessing
 import shutil
 import time
 from collections import deque
@@ -31,6 +30,9 @@ import h5py
 from legato_drake.data.layout import DatasetError, open_dataset, read_json_attr, sorted_demos
 from legato_drake.data.pose_stream import find_pose_streams, load_pose_stream
 from legato_drake.data.writer import Episode, env_args_for, merge_demos, write_dataset
+from legato_drake.diagram import build_diagram
+from legato_drake.episode import simulate
+from legato_drake.executor import Executor, make_executor
 from legato_drake.files import atomic_write_text
 from legato_drake.progress import progress_bar
 from legato_drake.scenario import ExpertNoiseConfig, Scenario
@@ -44,11 +46,13 @@ CONFIG_KEYS = ("task", "embodiment", "camera", "duration", "source", "keep_failu
 
 
 @dataclass(frozen=True)
-class Job:
-    """One episode to record: its part key, its scenario, extra demo attributes."""
+class CollectJob:
+    """One episode to record: its part key, its scenario, the part file it is written to,
+    extra demo attributes."""
 
     key: str
     scenario: Scenario
+    part: Path
     attrs: dict = field(default_factory=dict)
 
 
@@ -90,9 +94,6 @@ def parts_dir(out: Path) -> Path:
 def record_episode(scenario: Scenario) -> tuple[dict, Episode]:
     """Simulates one recorded episode of ``scenario``; returns its result (as a dict) and the
     episode's samples."""
-    from legato_drake.diagram import build_diagram
-    from legato_drake.episode import simulate
-
     built = build_diagram(scenario, record=True)
     simulator, result = simulate(built)
     recorder = built.recorder
@@ -114,15 +115,15 @@ def record_episode(scenario: Scenario) -> tuple[dict, Episode]:
     return result.to_dict(), episode
 
 
-def _outcome(job: Job, success: bool, reason: str, samples: int, wall: float) -> dict:
+def _outcome(job: CollectJob, success: bool, reason: str, samples: int, wall: float) -> dict:
     return dict(key=job.key, seed=job.scenario.seed, success=bool(success), reason=reason,
                 num_samples=int(samples), wall_time=round(wall, 3),
                 source=job.attrs.get("source", ""))
 
 
-def run_job(job: Job, folder: Path) -> dict:
-    """Records ``job`` and writes its part file atomically (in a worker process); returns the
-    outcome. An episode that raises is a failure with the error as its reason."""
+def run_job(job: CollectJob) -> dict:
+    """Records ``job`` and writes its part file atomically (in a worker process, or here);
+    returns the outcome. An episode that raises is a failure with the error as its reason."""
     start = time.perf_counter()
     try:
         _, episode = record_episode(job.scenario)
@@ -130,12 +131,12 @@ def run_job(job: Job, folder: Path) -> dict:
         log.warning("%s failed with an error: %s", job.key, e)
         outcome = _outcome(job, False, f"error: {type(e).__name__}: {e}", 0,
                            time.perf_counter() - start)
-        write_dataset(folder / f"{job.key}.hdf5", [], extra=dict(outcome=outcome))
+        write_dataset(job.part, [], extra=dict(outcome=outcome))
         return outcome
     episode.attrs.update(job.attrs, key=job.key)
     outcome = _outcome(job, episode.success, str(episode.attrs["reason"]), len(episode),
                        time.perf_counter() - start)
-    write_dataset(folder / f"{job.key}.hdf5", [episode], extra=dict(outcome=outcome))
+    write_dataset(job.part, [episode], extra=dict(outcome=outcome))
     return outcome
 
 
@@ -215,11 +216,13 @@ def _restore_parts(out: Path, folder: Path, config: dict) -> None:
                               extra=dict(outcome={**outcome, "restored": True}))
 
 
-def _seed_jobs(base: Scenario, seed0: int, count: int) -> list[Job]:
-    return [Job(seed_key(s), base.replace(seed=s)) for s in range(seed0, seed0 + count)]
+def _seed_jobs(base: Scenario, folder: Path, seed0: int, count: int) -> list[CollectJob]:
+    return [CollectJob(seed_key(s), base.replace(seed=s), folder / f"{seed_key(s)}.hdf5")
+            for s in range(seed0, seed0 + count)]
 
 
-def _stream_jobs(base: Scenario, source: Path, seed0: int, episodes: int) -> list[Job]:
+def _stream_jobs(base: Scenario, folder: Path, source: Path, seed0: int,
+                 episodes: int) -> list[CollectJob]:
     jobs = []
     for i, path in enumerate(find_pose_streams(source)[:episodes]):
         stream = load_pose_stream(path)
@@ -228,20 +231,19 @@ def _stream_jobs(base: Scenario, source: Path, seed0: int, episodes: int) -> lis
                                f"not {base.task!r}")
         seed = stream.seed if stream.seed is not None else seed0 + i
         scenario = base.replace(controller="replay", pose_stream=str(path.resolve()), seed=seed)
-        jobs.append(Job(f"stream_{i:04d}_{path.stem}"[:80], scenario,
-                        dict(source=path.name)))
+        key = f"stream_{i:04d}_{path.stem}"[:80]
+        jobs.append(CollectJob(key, scenario, folder / f"{key}.hdf5", dict(source=path.name)))
     return jobs
 
 
-def _schedule(jobs: list[Job], outcomes: dict[str, dict], needed: int, keep_failures: bool,
-              workers: int, folder: Path, bar) -> None:
-    """Runs jobs in order until ``needed`` episodes are kept among the first ones tried; at
-    most ``workers`` at a time, never speculating past what may still be needed."""
+def _schedule(jobs: list[CollectJob], outcomes: dict[str, dict], needed: int,
+              keep_failures: bool, executor: Executor, bar) -> None:
+    """Runs jobs in order until ``needed`` episodes are kept among the first ones tried; as
+    many at a time as the executor runs, never speculating past what may still be needed."""
     order = {job.key: i for i, job in enumerate(jobs)}
     pending = deque(job for job in jobs if job.key not in outcomes)
-    in_flight: dict[str, object] = {}
 
-    def next_job() -> Job | None:
+    def next_job(in_flight: int) -> CollectJob | None:
         if not pending:
             return None
         index = order[pending[0].key]
@@ -250,7 +252,7 @@ def _schedule(jobs: list[Job], outcomes: dict[str, dict], needed: int, keep_fail
         if kept >= needed:
             pending.clear()  # every later job is unnecessary
             return None
-        if kept + len(in_flight) >= needed:
+        if kept + in_flight >= needed:
             return None  # wait: the episodes in flight may be enough
         return pending.popleft()
 
@@ -261,20 +263,8 @@ def _schedule(jobs: list[Job], outcomes: dict[str, dict], needed: int, keep_fail
         bar.set_postfix(tried=len(outcomes),
                         failed=sum(not o["success"] for o in outcomes.values()))
 
-    if workers <= 1:
-        while (job := next_job()) is not None:
-            record(run_job(job, folder))
-        return
-    context = multiprocessing.get_context("spawn")
-    with cf.ProcessPoolExecutor(workers, mp_context=context) as pool:
-        while True:
-            while len(in_flight) < workers and (job := next_job()) is not None:
-                in_flight[job.key] = pool.submit(run_job, job, folder)
-            if not in_flight:
-                return
-            done, _ = cf.wait(in_flight.values(), return_when=cf.FIRST_COMPLETED)
-            for key in [k for k, future in in_flight.items() if future in done]:
-                record(in_flight.pop(key).result())
+    for outcome in executor.stream(run_job, next_job):
+        record(outcome)
 
 
 def _up_to_date(out: Path, config: dict) -> dict | None:
@@ -296,7 +286,8 @@ def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers:
             camera: bool = True, duration: float | None = None,
             max_attempts: int | None = None, keep_parts: bool = False,
             progress: bool | None = None, expert_noise: ExpertNoiseConfig | None = None,
-            stop_on_success: bool = False) -> CollectReport:
+            stop_on_success: bool = False, executor: Executor | None = None
+            ) -> CollectReport:
     """Collects ``episodes`` demonstrations of ``task`` on ``embodiment`` into ``out``.
 
     Seeds ``seed0, seed0 + 1, ..`` are tried in order (at most ``max_attempts``, default
@@ -307,8 +298,8 @@ def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers:
     scenario's episode length. ``expert_noise`` perturbs the scripted expert (DART-style:
     the recorded actions are its corrections, ``ScriptedDemonstrator``). By default an
     episode is recorded to its end (the release, the hold and the retreat after success);
-    ``stop_on_success`` ends it a few samples after the release instead. Resumable; see the
-    module docstring."""
+    ``stop_on_success`` ends it a few samples after the release instead. Episodes run in
+    ``workers`` processes (or on ``executor``). Resumable; see the module docstring."""
     # Guard (issue 12): collecting never shrinks an existing dataset.
     if Path(out).is_file():
         try:
@@ -355,18 +346,18 @@ def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers:
         log.info("resuming: %d episode(s) already recorded in %s", len(outcomes), folder)
 
     if source is not None:
-        jobs = _stream_jobs(base, Path(source), seed0, episodes)
+        jobs = _stream_jobs(base, folder, Path(source), seed0, episodes)
         needed, keep_all = len(jobs), True
     else:
         attempts = max_attempts if max_attempts is not None else 3 * episodes + 10
-        jobs = _seed_jobs(base, seed0, max(attempts, episodes))
+        jobs = _seed_jobs(base, folder, seed0, max(attempts, episodes))
         needed, keep_all = episodes, keep_failures
     order = {job.key: i for i, job in enumerate(jobs)}
     keepable = [k for k, o in outcomes.items() if k in order and _keepable(o, keep_all)]
     bar = progress_bar(progress=progress, total=needed, initial=min(len(keepable), needed),
                        desc="collect", unit="episode")
     try:
-        _schedule(jobs, outcomes, needed, keep_all, workers, folder, bar)
+        _schedule(jobs, outcomes, needed, keep_all, executor or make_executor(workers), bar)
     finally:
         bar.close()
 

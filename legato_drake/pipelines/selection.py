@@ -18,8 +18,9 @@ import logging
 from pathlib import Path
 
 from legato_drake.errors import ConfigError
-from legato_drake.evaluation import evaluate
+from legato_drake.executor import Executor
 from legato_drake.files import atomic_write_text
+from legato_drake.pipelines.evaluate import evaluate
 
 log = logging.getLogger(__name__)
 
@@ -43,11 +44,12 @@ def candidates(run: Path) -> list[Path]:
 
 def select_checkpoint(run: str | Path, task: str, embodiment: str = "abstract",
                       trials: int = 20, seed0: int = SELECT_SEED0, workers: int = 1,
-                      progress: bool | None = None) -> dict:
+                      progress: bool | None = None, executor: Executor | None = None) -> dict:
     """Rolls out each candidate of ``run`` for ``trials`` validation seeds from ``seed0`` on
-    ``embodiment`` / ``task``; writes ``selected.pt`` and ``selection.json``; returns the
-    summary ``{"selected", "step", "seeds", "embodiment", "task", "candidates": [{"name",
-    "step", "successes", "trials"}]}``."""
+    ``embodiment`` / ``task`` (in ``workers`` processes, or on ``executor``); writes
+    ``selected.pt`` and ``selection.json``; returns the summary ``{"selected", "step",
+    "seeds", "embodiment", "task", "candidates": [{"name", "step", "successes",
+    "trials"}]}``."""
     from legato_drake.learning.checkpoint import load_checkpoint, save_checkpoint
 
     run = Path(run)
@@ -63,7 +65,7 @@ def select_checkpoint(run: str | Path, task: str, embodiment: str = "abstract",
     rows = []
     for path in found:
         doc = evaluate(path, [embodiment], [task], trials, run / "selection", workers=workers,
-                       method=path.stem, seed0=seed0, progress=progress)
+                       method=path.stem, seed0=seed0, progress=progress, executor=executor)
         successes = sum(bool(t["success"]) for t in doc["trials"])
         rows.append(dict(name=path.name, step=doc["checkpoint_step"], successes=successes,
                          trials=len(doc["trials"])))

@@ -1,5 +1,6 @@
 """Evaluating a trained policy: closed-loop trials per embodiment and task, resumable results,
-success tables with 95 % Wilson intervals, plots like the paper's figures, Meshcat replays.
+plots like the paper's figures with 95 % Wilson intervals, Meshcat replays (the success
+tables: ``legato_drake.summary.trial_rows`` and ``failure_rows``).
 
 ``evaluate(...)`` runs trial i of each (embodiment, task) with the scene seed ``seed0 + i``
 (default seeds 10000, 10001, ..., disjoint from the training demonstrations' seeds, which the
@@ -26,13 +27,21 @@ import hashlib
 import io
 import json
 import logging
-import multiprocessing
+import math
+import time
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
+from legato_drake.embodiments import EMBODIMENTS
+from legato_drake.episode import run_episode
 from legato_drake.errors import ConfigError
+from legato_drake.executor import Executor, make_executor
 from legato_drake.files import atomic_write_bytes, atomic_write_text
-from legato_drake.stats import wilson_interval
+from legato_drake.progress import progress_bar
+from legato_drake.scenario import Scenario
+from legato_drake.summary import Rate, group_by
+from legato_drake.tasks import TASKS
 
 log = logging.getLogger(__name__)
 
@@ -41,33 +50,43 @@ EVAL_SEED0 = 10000
 """First scene seed of evaluation trials (training data uses seeds from 0)."""
 TRIAL_FIELDS = ("method", "embodiment", "task", "trial", "seed", "success", "reason",
                 "success_time", "episode_time", "wall_time", "html")
-SUMMARY_HEADERS = ["method", "embodiment", "task", "success", "rate %", "95% CI %",
-                   "mean success s", "mean wall s"]
 
 
-def _run_trial(job: dict) -> dict:
-    """Runs one trial (in a worker process: one torch thread) and returns its row. A trial
-    that raises (a policy can drive the simulation somewhere it fails) is a failure whose
-    reason is the error, so that the evaluation still finishes."""
-    import time
+@dataclass(frozen=True)
+class TrialJob:
+    """One trial: the method it counts for, its index in its cell, its scenario (the policy
+    on one embodiment, task and scene seed) and where its HTML replay goes (None: none)."""
 
+    method: str
+    trial: int
+    scenario: Scenario
+    html: Path | None = None
+
+
+def trial_scenario(embodiment: str, task: str, seed: int, checkpoint: str | Path,
+                   camera: bool, duration: float | None) -> Scenario:
+    """The scenario of one trial: the checkpoint's policy in the scene of ``seed``."""
+    scenario = Scenario(embodiment=embodiment, task=task, controller="policy",
+                        checkpoint=str(checkpoint), seed=seed)
+    scenario.camera.enabled = camera
+    if duration is not None:
+        scenario.duration = duration
+    return scenario
+
+
+def run_trial(job: TrialJob) -> dict:
+    """Runs one trial (in a worker process, or here: one torch thread) and returns its row.
+    A trial that raises (a policy can drive the simulation somewhere it fails) is a failure
+    whose reason is the error, so that the evaluation still finishes."""
     import torch
 
-    from legato_drake.episode import run_episode
-    from legato_drake.scenario import Scenario
-
     torch.set_num_threads(1)
-    row = {"method": job["method"], "embodiment": job["embodiment"], "task": job["task"],
-           "trial": job["trial"], "seed": job["seed"]}
-    scenario = Scenario(embodiment=job["embodiment"], task=job["task"], controller="policy",
-                        checkpoint=job["checkpoint"], seed=job["seed"])
-    scenario.camera.enabled = job["camera"]
-    if job["duration"] is not None:
-        scenario.duration = job["duration"]
-    html = job["html"]
+    scenario, html = job.scenario, job.html
+    row = {"method": job.method, "embodiment": scenario.embodiment, "task": scenario.task,
+           "trial": job.trial, "seed": scenario.seed}
     start = time.perf_counter()
     try:
-        result = run_episode(scenario.validate(), html=html)
+        result = run_episode(scenario, html=html)
     except Exception as e:  # noqa: BLE001 - recorded in the results, not raised
         log.warning("trial %s failed with an error: %s", row, e)
         return {**row, "success": False, "reason": f"error: {type(e).__name__}: {e}",
@@ -115,14 +134,14 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
              trials: int, out: str | Path, workers: int = 1, replays: int = 0,
              method: str | None = None, seed0: int = EVAL_SEED0,
              duration: float | None = None, progress: bool | None = None,
-             overwrite: bool = False) -> dict:
+             overwrite: bool = False, executor: Executor | None = None) -> dict:
     """Runs ``trials`` closed-loop trials of the policy per embodiment and task (skipping
-    those already in the results file); returns the results document. The first ``replays``
-    trials of each cell also get a Meshcat HTML replay in ``OUT/replays/``. A results file
-    of another checkpoint, ``duration``, ``seed0`` or trial set is refused unless
-    ``overwrite`` (which starts it afresh)."""
-    from legato_drake.learning.checkpoint import load_checkpoint
-    from legato_drake.progress import progress_bar
+    those already in the results file), in ``workers`` processes (or on ``executor``);
+    returns the results document, rewritten after every trial. The first ``replays`` trials
+    of each cell also get a Meshcat HTML replay in ``OUT/replays/``. A results file of
+    another checkpoint, ``duration``, ``seed0`` or trial set is refused unless ``overwrite``
+    (which starts it afresh)."""
+    from legato_drake.learning.checkpoint import load_checkpoint  # torch: only when needed
 
     check_inputs(embodiments, tasks, trials, workers, replays, method, seed0, duration)
     checkpoint = Path(checkpoint).resolve()
@@ -170,10 +189,9 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
                     continue
                 html = (out / "replays" / f"{method}-{embodiment}-{task}-seed{seed}.html"
                         if i < replays else None)
-                jobs.append(dict(method=method, embodiment=embodiment, task=task, trial=i,
-                                 seed=seed, checkpoint=str(frozen),
-                                 camera=ckpt.config.obs_mode == "image", duration=duration,
-                                 html=html))
+                scenario = trial_scenario(embodiment, task, seed, frozen,
+                                          ckpt.config.obs_mode == "image", duration)
+                jobs.append(TrialJob(method, i, scenario, html))
     if len(jobs) < len(embodiments) * len(tasks) * len(seeds):
         log.info("%s: %d trials already done, %d to run", path, len(doc["trials"]), len(jobs))
     bar = dict(total=len(jobs), desc=f"evaluate {method}", unit="trial", progress=progress)
@@ -185,13 +203,10 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
 
     if not jobs:
         write_results(path, doc)
-    elif workers > 1 and len(jobs) > 1:
-        with multiprocessing.get_context("spawn").Pool(min(workers, len(jobs))) as pool:
-            for row in progress_bar(pool.imap_unordered(_run_trial, jobs), **bar):
-                record(row)
-    else:
-        for job in progress_bar(jobs, **bar):
-            record(_run_trial(job))
+        return doc
+    executor = executor or make_executor(workers, len(jobs))
+    for row in progress_bar(executor.as_completed(run_trial, jobs), **bar):
+        record(row)
     return doc
 
 
@@ -199,11 +214,6 @@ def check_inputs(embodiments: Sequence[str], tasks: Sequence[str], trials: int, 
                  replays: int, method: str | None, seed0: int,
                  duration: float | None) -> None:
     """Checks evaluate's arguments before any work; ConfigError naming the flag."""
-    import math
-
-    from legato_drake.embodiments import EMBODIMENTS
-    from legato_drake.tasks import TASKS
-
     for flag, names, registry in (("--embodiments", embodiments, EMBODIMENTS),
                                   ("--tasks", tasks, TASKS)):
         if not names:
@@ -229,64 +239,10 @@ def check_inputs(embodiments: Sequence[str], tasks: Sequence[str], trials: int, 
 def trial_order(trial: dict) -> tuple:
     """Sort key of trials: embodiments and tasks in their registries' order (the paper's:
     Abstract, Panda, Spot, Google Robot, GR-1), then the seed."""
-    from legato_drake.embodiments import EMBODIMENTS
-    from legato_drake.tasks import TASKS
-
     def rank(name: str, registry: dict) -> tuple[int, str]:
         return (list(registry).index(name) if name in registry else len(registry), name)
 
     return (rank(trial["embodiment"], EMBODIMENTS), rank(trial["task"], TASKS), trial["seed"])
-
-
-def summarize(trials: Iterable[dict]) -> list[list]:
-    """One row per (method, embodiment, task): successes, rate, Wilson 95 % interval, mean
-    success time and mean wall time."""
-    trials = sorted(trials, key=trial_order)
-    rows = []
-    for key in dict.fromkeys((t["method"], t["embodiment"], t["task"]) for t in trials):
-        group = [t for t in trials if (t["method"], t["embodiment"], t["task"]) == key]
-        k, n = sum(bool(t["success"]) for t in group), len(group)
-        low, high = wilson_interval(k, n)
-        times = [t["success_time"] for t in group if t["success"] and t["success_time"]]
-        rows.append([*key, f"{k}/{n}", 100.0 * k / n, f"{100 * low:.0f}-{100 * high:.0f}",
-                     sum(times) / len(times) if times else float("nan"),
-                     sum(t["wall_time"] for t in group) / n])
-    return rows
-
-
-UNITS = ("m", "cm", "mm", "deg", "rad", "m/s", "s")
-"""Unit words that follow a number in a failure reason."""
-
-
-def reason_kind(reason: str) -> str:
-    """A failure reason without its numbers, for counting: the predicate's condition that
-    failed ("lid -1.4 cm from resting on the rim (allowed -1.0 to +1.5 cm)" -> "lid … from
-    resting on the rim"; "lid still held: the fingers are open 0 mm" -> "lid still held")."""
-    head = reason.split(" (")[0].split(":")[0]
-    words: list[str] = []
-    after_number = False
-    for word in head.split():
-        if any(c.isdigit() for c in word):
-            words.append("…")
-            after_number = True
-        elif after_number and word in UNITS:
-            after_number = False
-        else:
-            words.append(word)
-            after_number = False
-    return " ".join(words) or reason
-
-
-def failure_counts(trials: Iterable[dict]) -> list[list]:
-    """One row per (method, embodiment, task): how many trials failed by which condition."""
-    trials = sorted(trials, key=trial_order)
-    rows = []
-    for key in dict.fromkeys((t["method"], t["embodiment"], t["task"]) for t in trials):
-        kinds = [reason_kind(t["reason"]) for t in trials
-                 if (t["method"], t["embodiment"], t["task"]) == key and not t["success"]]
-        counts = sorted(((kinds.count(k), k) for k in set(kinds)), reverse=True)
-        rows.append([*key, ", ".join(f"{k} x{n}" for n, k in counts) or "-"])
-    return rows
 
 
 def plot_success(trials: Iterable[dict], png: str | Path, title: str = "") -> Path:
@@ -300,23 +256,24 @@ def plot_success(trials: Iterable[dict], png: str | Path, title: str = "") -> Pa
 
     trials = sorted(trials, key=trial_order)
     tasks = list(dict.fromkeys(t["task"] for t in trials))
-    cells = list(dict.fromkeys(
-        t["embodiment"] if len(tasks) == 1 else f"{t['embodiment']}/{t['task']}"
-        for t in trials))
-    methods = list(dict.fromkeys(t["method"] for t in trials))
+
+    def cell_of(trial: dict) -> str:
+        return trial["embodiment"] if len(tasks) == 1 else \
+            f"{trial['embodiment']}/{trial['task']}"
+
+    groups = group_by(trials, key=lambda t: (t["method"], cell_of(t)))
+    cells = list(dict.fromkeys(cell for _, cell in groups))
+    methods = list(dict.fromkeys(method for method, _ in groups))
     width = 0.8 / max(len(methods), 1)
     fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(cells) * max(len(methods), 1)), 3.5))
     for j, method in enumerate(methods):
         rates, lows, highs, labels = [], [], [], []
         for cell in cells:
-            group = [t for t in trials if t["method"] == method and
-                     (t["embodiment"] if len(tasks) == 1
-                      else f"{t['embodiment']}/{t['task']}") == cell]
-            k, n = sum(bool(t["success"]) for t in group), len(group)
-            low, high = wilson_interval(k, n)
-            rate = k / n if n else 0.0
+            counts = Rate.of(groups.get((method, cell), []))
+            low, high = counts.interval
+            rate, n = counts.fraction, counts.trials
             rates.append(100 * rate)
-            labels.append(f"{k}/{n}" if n else "")
+            labels.append(counts.count_text if n else "")
             lows.append(100 * (rate - low) if n else 0.0)
             highs.append(100 * (high - rate) if n else 0.0)
         x = np.arange(len(cells)) + (j - (len(methods) - 1) / 2) * width

@@ -1,0 +1,61 @@
+"""What every policy family implements: the seam between a network and the code that trains,
+saves and runs it.
+
+Training (``learning.train``) calls ``losses`` and logs whatever terms it returns;
+checkpoints rebuild a policy from its config and normalisation statistics through the
+registry (``learning.registry``); the ``PolicyController`` keeps the policy's rollout state
+opaque and executes the first ``execute_steps`` actions of each predicted chunk before it asks
+again (receding horizon). A recurrent policy predicts one action per call and carries its
+LSTM state; a Diffusion Policy would predict a chunk of P actions and carry its observation
+window.
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Mapping
+
+import numpy as np
+import torch
+from torch import nn
+
+from legato_drake.learning.config import LearningConfig
+
+Stats = Mapping[str, Mapping[str, np.ndarray]]
+"""Normalisation statistics: observation key (and ``actions``) -> ``mean``, ``std``."""
+
+
+class PolicyFamily(nn.Module, abc.ABC):
+    """A policy family: built from ``(config, stats)``, trained through ``losses``, run
+    through ``initial_state`` and ``act``. Subclasses register under an ``algo`` name in
+    ``learning.registry``.
+
+    A rollout state must be immutable or copied on update (the controller keeps it in a Drake
+    abstract state, which contexts clone); numpy arrays and tuples of them are the usual.
+    """
+
+    loss_terms: tuple[str, ...] = ("total",)
+    """The names ``losses`` returns, ``total`` (the optimised sum) last: the training log's
+    columns."""
+    execute_steps: int = 1
+    """Actions of a predicted chunk executed before the next ``act`` (receding horizon)."""
+
+    def __init__(self, config: LearningConfig, stats: Stats):
+        super().__init__()
+        self.config = config
+
+    @abc.abstractmethod
+    def losses(self, batch: Mapping) -> dict[str, torch.Tensor]:
+        """The loss terms (``loss_terms``) of a collated batch of ``DemoSequenceDataset``
+        items: ``obs`` (B, T, ...), ``actions`` (B, T, 7), ``pad_mask`` (B, T)."""
+
+    @abc.abstractmethod
+    def initial_state(self) -> object:
+        """The rollout state at the start of an episode."""
+
+    @abc.abstractmethod
+    def act(self, obs: Mapping[str, torch.Tensor], state: object
+            ) -> tuple[torch.Tensor, object]:
+        """One decision: raw observations (B, ...) without a time axis and the rollout state
+        -> the predicted actions (B, P, 7) (P = 1 for a single-step policy; the first
+        ``execute_steps`` are executed) and the next rollout state."""

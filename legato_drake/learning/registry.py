@@ -1,0 +1,44 @@
+"""The policy families by ``LearningConfig.algo``: where a new family is registered.
+
+A new family subclasses ``family.PolicyFamily`` and is added to ``FAMILIES`` here (or, from
+outside the package, with ``register_family``); training, checkpoints, selection and the
+``PolicyController`` then work with it unchanged.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from legato_drake.errors import ConfigError
+from legato_drake.learning.config import LearningConfig
+from legato_drake.learning.family import PolicyFamily, Stats
+from legato_drake.learning.policies import RecurrentGMMPolicy
+
+Builder = Callable[[LearningConfig, Stats], PolicyFamily]
+
+FAMILIES: dict[str, Builder] = {
+    "legato": RecurrentGMMPolicy,
+    "bc_rnn": RecurrentGMMPolicy,
+}
+"""``algo`` -> the class (or any callable) that builds the family's policy."""
+
+
+def register_family(algo: str, builder: Builder) -> None:
+    """Adds a policy family under ``algo`` (an existing name is an error)."""
+    if algo in FAMILIES:
+        raise ValueError(f"policy family {algo!r} is already registered")
+    FAMILIES[algo] = builder
+
+
+def check_algo(algo: str, where: str = "") -> None:
+    """A ConfigError naming the registered families unless ``algo`` is one of them."""
+    if algo not in FAMILIES:
+        place = f" in {where}" if where else ""
+        raise ConfigError(f"algo{place}: unknown policy family {algo!r}; registered: "
+                          f"{', '.join(FAMILIES)}")
+
+
+def build_policy(config: LearningConfig, stats: Stats) -> PolicyFamily:
+    """The policy of ``config.algo``'s family, with freshly initialised weights."""
+    check_algo(config.algo)
+    return FAMILIES[config.algo](config, stats)
