@@ -74,9 +74,9 @@ def table(paths: list[Path], task: str) -> list[str]:
         lines.append(f"| {method} ({', '.join(str(s) for s in sorted(seeds))}) | " +
                      " | ".join(cells) + f" | {_spread(cross) if cross else '-'} |")
     for method, rates in PAPER.get(task, {}).items():
-        cross = sum(rates[e] for e in others) / len(others) if others else float("nan")
+        cross = f"{sum(rates[e] for e in others) / len(others):.0f} %" if others else "-"
         lines.append(f"| {method} | " + " | ".join(f"{rates[e]} %" for e in embodiments) +
-                     f" | {cross:.0f} % |")
+                     f" | {cross} |")
     return lines
 
 

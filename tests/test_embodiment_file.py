@@ -62,6 +62,23 @@ def test_planar_base_adds_actuated_virtual_joints(tmp_path):
     assert robot.home_positions[-3] == pytest.approx(-0.45)
 
 
+def test_an_embodiment_file_is_read_once_per_version(tmp_path, monkeypatch):
+    from legato_drake.embodiments import from_file
+    from legato_drake.embodiments.from_file import read_text_file
+
+    reads = []
+    monkeypatch.setattr(from_file, "read_text_file",
+                        lambda *a: reads.append(a[0]) or read_text_file(*a))
+    path = write_ur_arm(tmp_path)
+    from_file._load_embodiment_file.cache_clear()
+    scenario = Scenario(embodiment_file=str(path)).validate()  # reads it for the name
+    assert scenario.embodiment == "ur_arm"
+    assert load_embodiment_file(path) is load_embodiment_file(path)
+    assert len(reads) == 1
+    path.write_text(path.read_text().replace("name: ur_arm", "name: ur_arm_2"))
+    assert load_embodiment_file(path).name == "ur_arm_2" and len(reads) == 2
+
+
 @pytest.mark.slow
 def test_yaml_robot_closes_the_lid(tmp_path):
     scenario = Scenario(embodiment_file=str(write_ur_arm(tmp_path)), seed=1)

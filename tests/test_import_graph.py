@@ -27,6 +27,14 @@ ROBOT_SIDE = ("legato_drake.embodiments", "legato_drake.systems", "legato_drake.
               "legato_drake.diagram", "legato_drake.episode", "legato_drake.scenario",
               "legato_drake.pipelines", "legato_drake.executor")
 """What the policy side must not import (packages: everything under them too)."""
+CORE = ("legato_drake.conventions", "legato_drake.dimensions", "legato_drake.robot_types",
+        "legato_drake.leg_kinematics", "legato_drake.poses", "legato_drake.summary",
+        "legato_drake.files", "legato_drake.errors", "legato_drake.progress",
+        "legato_drake.models")
+"""The bottom layer (README, Architecture): imports nothing of the package but itself."""
+APART = (("legato_drake.embodiments", "legato_drake.systems"),)
+"""Pairs of packages that import nothing of each other (robots are data, systems are
+systems: what both need lives in ``robot_types`` and ``leg_kinematics``)."""
 
 
 def _within(module: str, prefixes: tuple[str, ...]) -> bool:
@@ -154,6 +162,19 @@ def forbidden_edges(graph: dict[str, dict[str, int]], root: Path = ROOT) -> list
             for t, line in sorted(edges.items()) if _within(t, ROBOT_SIDE)]
 
 
+def layer_violations(graph: dict[str, dict[str, int]]) -> list[str]:
+    """``module -> target`` for every core module importing above the core, and every edge
+    between two packages kept apart."""
+    found = [f"{m} -> {t}" for m, edges in sorted(graph.items()) if _within(m, CORE)
+             for t in sorted(edges) if t != PACKAGE and not _within(t, CORE)]
+    for a, b in APART:
+        found += [f"{m} -> {t}" for m, edges in sorted(graph.items())
+                  for t in sorted(edges)
+                  if (_within(m, (a,)) and _within(t, (b,)))
+                  or (_within(m, (b,)) and _within(t, (a,)))]
+    return found
+
+
 def forbidden_paths(graph: dict[str, dict[str, int]]) -> list[str]:
     """``a -> b -> c`` for every policy-side module that reaches the robot side through
     other modules (e.g. a shared helper that imports a registry)."""
@@ -189,7 +210,8 @@ def test_the_checker_sees_lazy_relative_and_indirect_imports(tmp_path):
              "diagram.py": "import legato_drake.data.a\n",
              "episode.py": "from .data import a\n",
              "helper.py": "from legato_drake.tasks import lid\n",
-             "data/b.py": "import legato_drake.helper\n"}
+             "data/b.py": "import legato_drake.helper\n",
+             "conventions.py": "from legato_drake.tasks import lid\n"}
     for name, text in files.items():
         (tmp_path / PACKAGE / name).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / PACKAGE / name).write_text(text)
@@ -204,6 +226,8 @@ def test_the_checker_sees_lazy_relative_and_indirect_imports(tmp_path):
         "legato_drake/data/a.py:2: legato_drake.data.a -> legato_drake.diagram"]
     assert forbidden_paths(graph) == [
         "legato_drake.data.b -> legato_drake.helper -> legato_drake.tasks"]
+    assert layer_violations(graph) == ["legato_drake.conventions -> legato_drake.tasks",
+                                       "legato_drake.conventions -> legato_drake.tasks.lid"]
 
 
 def test_the_package_has_no_import_cycles():
@@ -224,11 +248,19 @@ def test_the_policy_side_imports_nothing_of_the_robot_side():
                        "other modules:\n" + "\n".join(paths))
 
 
+def test_the_core_stays_at_the_bottom_and_robots_and_systems_apart():
+    violations = layer_violations(import_graph())
+    assert not violations, ("the core imports only the core, and embodiments/ and systems/ "
+                            "never each other (README, Architecture):\n"
+                            + "\n".join(violations))
+
+
 if __name__ == "__main__":
     graph = import_graph()
     components = cyclic_components(graph)
     edges = forbidden_edges(graph)
     paths = forbidden_paths(graph)
+    layers = layer_violations(graph)
     print(f"{len(graph)} modules, {sum(len(e) for e in graph.values())} edges")
     print(f"import cycles (strongly connected groups of modules): {len(components)}")
     for component in components:
@@ -240,4 +272,7 @@ if __name__ == "__main__":
     print(f"policy-side modules reaching the robot side through others: {len(paths)}")
     for path in paths:
         print("  " + path)
-    sys.exit(1 if components or edges or paths else 0)
+    print(f"core or embodiments/systems layer violations: {len(layers)}")
+    for layer in layers:
+        print("  " + layer)
+    sys.exit(1 if components or edges or paths or layers else 0)

@@ -47,6 +47,7 @@ paths made absolute) and logs a note. Add transmissions to actuate only some joi
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import logging
 import math
@@ -100,8 +101,20 @@ are revolute in Drake)."""
 
 
 def load_embodiment_file(path: str | Path) -> Embodiment:
-    """Reads, checks and returns the embodiment defined in the YAML file ``path``."""
+    """Reads, checks and returns the embodiment defined in the YAML file ``path``: once per
+    process and version of the file (a scenario's validation and its diagram share the
+    result; an ``Embodiment`` is immutable)."""
     path = Path(path)
+    try:
+        stat = path.resolve().stat()
+        version = (stat.st_mtime_ns, stat.st_size)
+    except OSError:
+        version = None  # read_text_file names the problem
+    return _load_embodiment_file(path, version)
+
+
+@functools.lru_cache(maxsize=32)
+def _load_embodiment_file(path: Path, version: tuple[int, int] | None) -> Embodiment:
     text = read_text_file(path, "embodiment file")
     try:
         raw = yaml_load(data=text) if text.strip() else None
