@@ -33,7 +33,10 @@ def data(tmp_path_factory) -> Path:
 def test_shipped_configs_load(path):
     config = load_config(path)
     assert config.name == path.stem.replace("_paper", "")
-    assert config.seq_length == 20 and config.batch_size == 16
+    if config.algo.startswith("dp_"):  # one window: the observations and the chunk
+        assert config.seq_length == config.obs_horizon - 1 + config.pred_horizon
+    else:
+        assert config.seq_length == 20 and config.batch_size == 16
     if "paper" in path.stem:
         assert (config.rnn_layers, config.rnn_hidden, config.mlp_dims, config.lr) == \
             (3, 400, [2048, 2048, 2048], 1e-4)

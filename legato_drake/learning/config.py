@@ -91,6 +91,26 @@ class LearningConfig:
     invariant_tail: bool = False
     """Compare the window's tail too (``invariants.invariant_loss``): without it (the
     appendix's loss) a single predicted action enters L_invar through th2 alone."""
+    obs_horizon: int = 2
+    """Diffusion Policy: observation steps the network is conditioned on (the current one
+    and those before it)."""
+    pred_horizon: int = 16
+    """Diffusion Policy: actions predicted per decision (P); ``seq_length`` must be at least
+    ``obs_horizon - 1 + pred_horizon`` (a training window holds both)."""
+    action_horizon: int = 8
+    """Diffusion Policy: actions of each prediction executed before the next (k <= P)."""
+    unet_dims: list[int] = field(default_factory=lambda: [64, 128, 256])
+    """Diffusion Policy: channels of the temporal U-Net's levels (each halves the time axis
+    but the last)."""
+    unet_kernel: int = 5
+    """Diffusion Policy: the U-Net's temporal convolution width."""
+    diffusion_steps: int = 100
+    """Diffusion Policy: DDPM noise levels in training (squared-cosine schedule)."""
+    inference_steps: int = 10
+    """Diffusion Policy: DDIM denoising steps per decision at rollout."""
+    ema_decay: float = 0.999
+    """Diffusion Policy: the most a step keeps of the weights' moving average (warmed up as
+    ``(1 + step) / (10 + step)``); rollout and validation use the average."""
     valid_every: int = 200
     """Steps between validation losses (and ``best.pt`` updates)."""
     valid_batches: int = 8
@@ -125,7 +145,8 @@ class LearningConfig:
                                     f"{self.state_keys!r}")
         for name in ("keypoints", "feature_dim", "rnn_layers", "rnn_hidden", "gmm_modes",
                      "seq_length", "batch_size", "steps", "valid_every", "valid_batches",
-                     "checkpoint_every"):
+                     "checkpoint_every", "obs_horizon", "pred_horizon", "action_horizon",
+                     "unet_kernel", "diffusion_steps", "inference_steps"):
             if getattr(self, name) < 1:
                 raise bad(name, f"must be a positive integer, got {getattr(self, name)}")
         if any(c < 1 for c in self.encoder_channels) or not self.encoder_channels:
@@ -133,6 +154,16 @@ class LearningConfig:
                                           f"{self.encoder_channels}")
         if any(d < 1 for d in self.mlp_dims):
             raise bad("mlp_dims", f"must be positive integers, got {self.mlp_dims}")
+        if not self.unet_dims or any(d < 1 or d % 8 for d in self.unet_dims):
+            raise bad("unet_dims", f"must be multiples of 8 (group norm), got {self.unet_dims}")
+        if self.action_horizon > self.pred_horizon:
+            raise bad("action_horizon", f"must be at most pred_horizon ({self.pred_horizon}), "
+                                        f"got {self.action_horizon}")
+        if self.inference_steps > self.diffusion_steps:
+            raise bad("inference_steps", f"must be at most diffusion_steps "
+                                         f"({self.diffusion_steps}), got {self.inference_steps}")
+        if not (math.isfinite(self.ema_decay) and 0 <= self.ema_decay < 1):
+            raise bad("ema_decay", f"must be in [0, 1), got {self.ema_decay}")
         for name in ("lr", "min_std", "invariant_eps"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise bad(name, f"must be a positive number, got {getattr(self, name)}")

@@ -44,6 +44,24 @@ class PolicyFamily(nn.Module, abc.ABC):
         super().__init__()
         self.config = config
 
+    @classmethod
+    def extra_stats(cls, config: LearningConfig, actions: list[np.ndarray]
+                    ) -> dict[str, dict[str, np.ndarray]]:
+        """Statistics the family needs beyond the observations' and actions' mean and std,
+        from the training demos' (T, 7) action arrays (e.g. the range of its own action
+        representation); they are stored in the checkpoint with the others."""
+        return {}
+
+    def after_step(self, step: int) -> None:
+        """Called by training after each optimizer step (e.g. to update an EMA of the
+        weights); ``step`` counts from 1."""
+
+    def observe(self, obs: Mapping[str, torch.Tensor], state: object) -> object:
+        """Called at every control step with that step's observation (B, ...), before an
+        ``act`` if one is due; returns the next state (e.g. with the observation window
+        advanced). By default the state is left as it is."""
+        return state
+
     @abc.abstractmethod
     def losses(self, batch: Mapping) -> dict[str, torch.Tensor]:
         """The loss terms (``loss_terms``) of a collated batch of ``DemoSequenceDataset``

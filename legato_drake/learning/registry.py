@@ -9,8 +9,11 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import numpy as np
+
 from legato_drake.errors import ConfigError
 from legato_drake.learning.config import LearningConfig
+from legato_drake.learning.diffusion import DiffusionPolicy
 from legato_drake.learning.family import PolicyFamily, Stats
 from legato_drake.learning.policies import RecurrentGMMPolicy
 
@@ -19,6 +22,8 @@ Builder = Callable[[LearningConfig, Stats], PolicyFamily]
 FAMILIES: dict[str, Builder] = {
     "legato": RecurrentGMMPolicy,
     "bc_rnn": RecurrentGMMPolicy,
+    "dp_velocity": DiffusionPolicy,
+    "dp_reltraj": DiffusionPolicy,
 }
 """``algo`` -> the class (or any callable) that builds the family's policy."""
 
@@ -36,6 +41,15 @@ def check_algo(algo: str, where: str = "") -> None:
         place = f" in {where}" if where else ""
         raise ConfigError(f"algo{place}: unknown policy family {algo!r}; registered: "
                           f"{', '.join(FAMILIES)}")
+
+
+def extra_stats(config: LearningConfig, actions: list[np.ndarray]
+                ) -> dict[str, dict[str, np.ndarray]]:
+    """The statistics ``config.algo``'s family computes for itself from the training demos'
+    actions (``PolicyFamily.extra_stats``; none for a builder without it)."""
+    check_algo(config.algo)
+    compute = getattr(FAMILIES[config.algo], "extra_stats", None)
+    return compute(config, actions) if compute is not None else {}
 
 
 def build_policy(config: LearningConfig, stats: Stats) -> PolicyFamily:

@@ -43,7 +43,7 @@ from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint, save_c
 from legato_drake.learning.config import LearningConfig, config_from_dict, save_config
 from legato_drake.learning.family import PolicyFamily
 from legato_drake.learning.normalization import OBS_MIN_STD, compute_stats
-from legato_drake.learning.registry import build_policy, check_algo
+from legato_drake.learning.registry import build_policy, check_algo, extra_stats
 from legato_drake.progress import progress_bar
 
 log = logging.getLogger(__name__)
@@ -110,7 +110,9 @@ def dataset_stats(path: Path, config: LearningConfig) -> dict[str, dict[str, np.
         names = mask_names(f, "train") or sorted_demos(f["data"])
         stats = {k: compute_stats([read_observation(f["data"][n]["obs"], k) for n in names],
                                   OBS_MIN_STD) for k in keys}
-        stats["actions"] = compute_stats([f["data"][n]["actions"][()] for n in names])
+        actions = [f["data"][n]["actions"][()] for n in names]
+        stats["actions"] = compute_stats(actions)
+    stats.update(extra_stats(config, actions))
     return stats
 
 
@@ -224,7 +226,8 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
                           train_seeds=train_seeds, data=str(data))
     ckpt.config = config
     policy = ckpt.policy
-    optimizer = torch.optim.Adam(policy.parameters(), lr=config.lr,
+    trained = [p for p in policy.parameters() if p.requires_grad]  # not an EMA copy
+    optimizer = torch.optim.Adam(trained, lr=config.lr,
                                  weight_decay=config.weight_decay)
     if ckpt.optimizer is not None:
         optimizer.load_state_dict(ckpt.optimizer)
@@ -248,13 +251,14 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
         optimizer.zero_grad(set_to_none=True)
         losses["total"].backward()
         grad_norm = torch.nn.utils.clip_grad_norm_(
-            policy.parameters(), config.grad_clip if config.grad_clip > 0 else math.inf)
+            trained, config.grad_clip if config.grad_clip > 0 else math.inf)
         if not (math.isfinite(row["total"]) and math.isfinite(float(grad_norm))):
             # before the step: the weights (and the checkpoints) stay finite
             raise FloatingPointError(f"non-finite loss or gradient at step {ckpt.step + 1}: "
                                      f"{row}, gradient norm {float(grad_norm)}")
         optimizer.step()
         ckpt.step += 1
+        policy.after_step(ckpt.step)
         row.update(step=ckpt.step, lr=config.lr)
         if valid is not None and ckpt.step % config.valid_every == 0:
             scores = validation_losses(policy, valid, config, device)

@@ -48,8 +48,9 @@ class PolicyController(LeafSystem):
     recorded the dataset) and ``data.derived.read_observation`` (the code that derives
     observations for training). The policy (any ``learning.family.PolicyFamily``) predicts a
     chunk of actions from the observation and its own rollout state, which the controller
-    keeps without looking into it; the controller executes the first ``execute_steps`` of
-    the chunk, one per step, then asks again (receding horizon). For the recurrent policies
+    keeps without looking into it (``observe`` shows it every step's observation); the
+    controller executes the first ``execute_steps`` of the chunk, one per step, then asks
+    again (receding horizon). For the recurrent policies
     the chunk is one action (the low-noise GMM mode) and the state is the LSTM's, reset every
     ``seq_length`` steps (the training horizon).
 
@@ -162,13 +163,14 @@ class PolicyController(LeafSystem):
 
     def _step(self, context: Context, state: State) -> None:
         current = self.policy_state(context)
-        policy_state, plan = current.policy, current.plan
-        if not plan:
-            obs = self.observation(context, current.history)
-            with torch.no_grad():
+        plan = current.plan
+        obs = self.observation(context, current.history)
+        with torch.no_grad():
+            policy_state = self._policy.observe(obs, current.policy)
+            if not plan:
                 chunk, policy_state = self._policy.act(obs, policy_state)
-            steps = max(1, min(self._policy.execute_steps, chunk.shape[1]))
-            plan = tuple(tuple(float(a) for a in row) for row in chunk[0, :steps].numpy())
+                steps = max(1, min(self._policy.execute_steps, chunk.shape[1]))
+                plan = tuple(tuple(float(a) for a in row) for row in chunk[0, :steps].numpy())
         action = np.asarray(plan[0])
         history = np.concatenate([current.history[1:], action[None, :6]])
         new = PolicyState(current.step + 1, policy_state, history, plan[0], plan[1:])

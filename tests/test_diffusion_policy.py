@@ -1,0 +1,175 @@
+"""The Diffusion Policy families: representations, the chunk L_invar, training, rollout."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+import torch
+from pydrake.math import RigidTransform, RollPitchYaw
+
+from legato_drake.data.derived import observation_sizes
+from legato_drake.errors import ConfigError
+from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
+from legato_drake.learning.diffusion import (
+    RANGE_KEY,
+    DiffusionPolicy,
+    chunk_windows,
+    deltas_to_reltraj,
+    reltraj_to_deltas,
+)
+from legato_drake.learning.registry import build_policy
+from legato_drake.learning.train import train
+from legato_drake.poses import apply_delta, pose_delta
+from tests.learning_helpers import synthetic_dataset, tiny_config
+
+P = 6
+
+
+def dp_config(algo: str = "dp_velocity", **changes):
+    fields = dict(algo=algo, seq_length=P + 1, pred_horizon=P, action_horizon=3,
+                  obs_horizon=2, history=0, unet_dims=[16, 32], unet_kernel=3,
+                  diffusion_steps=20, inference_steps=4, invariant_weight=0.0)
+    fields.update(changes)
+    return tiny_config(**fields)
+
+
+def _stats(config, rng):
+    stats = {k: {"mean": rng.normal(0, 0.01, d).astype(np.float32),
+                 "std": np.full(d, 0.05, np.float32)} for k, d in observation_sizes(3).items()}
+    stats.update(DiffusionPolicy.extra_stats(config, [rng.normal(0, 0.01, (40, 7))]))
+    return stats
+
+
+def _batch(rng, B: int = 4):
+    L = P + 1
+    obs = {k: torch.tensor(rng.normal(0, 0.05, (B, L, d)), dtype=torch.float32)
+           for k, d in observation_sizes(3).items()}
+    actions = rng.normal(0, 0.01, (B, L, 7))
+    actions[..., 6] = rng.integers(0, 2, (B, L))
+    return {"obs": obs, "actions": torch.tensor(actions, dtype=torch.float32),
+            "pad_mask": torch.ones(B, L, dtype=torch.bool)}
+
+
+def test_relative_trajectory_round_trip_reaches_the_same_poses():
+    rng = np.random.default_rng(1)
+    poses = [RigidTransform(RollPitchYaw(rng.uniform(-3, 3, 3)), rng.normal(0, 0.5, 3))]
+    for _ in range(P):
+        poses.append(poses[-1] @ RigidTransform(RollPitchYaw(rng.normal(0, 0.2, 3)),
+                                                rng.normal(0, 0.03, 3)))
+    deltas = np.array([[*pose_delta(a, b), k % 2] for k, (a, b)
+                       in enumerate(zip(poses[:-1], poses[1:], strict=True))])
+    relative = deltas_to_reltraj(deltas)
+    for k in range(P):  # pose k + 1 in the frame of the chunk's start
+        X = poses[0].inverse() @ poses[k + 1]
+        np.testing.assert_allclose(relative[k, :3], X.translation(), atol=1e-12)
+        np.testing.assert_allclose(relative[k, 6], deltas[k, 6])
+    back = reltraj_to_deltas(relative)
+    np.testing.assert_allclose(back, deltas, atol=1e-12)
+    X = poses[0]
+    for k in range(P):
+        X = apply_delta(X, back[k, :6])
+        np.testing.assert_allclose(X.GetAsMatrix4(), poses[k + 1].GetAsMatrix4(), atol=1e-12)
+    torch.testing.assert_close(reltraj_to_deltas(deltas_to_reltraj(torch.tensor(deltas))),
+                               torch.tensor(deltas))
+
+
+def test_chunk_windows_pad_past_the_end_like_the_dataset():
+    actions = np.arange(8, dtype=float).reshape(4, 2).repeat(4, 1)[:, :7]
+    windows = chunk_windows(actions, 3)
+    assert windows.shape == (4, 3, 7)
+    np.testing.assert_array_equal(windows[-1], np.repeat(actions[-1:], 3, 0))
+
+
+@pytest.mark.parametrize("algo", ["dp_velocity", "dp_reltraj"])
+def test_the_chunk_invariant_loss_is_zero_on_the_demonstration_and_trains_the_network(algo):
+    rng = np.random.default_rng(0)
+    config = dp_config(algo, invariant_weight=1.0)
+    torch.manual_seed(0)
+    policy = build_policy(config, _stats(config, rng)).train()
+    batch = _batch(rng)
+    losses = policy.losses(batch)
+    assert set(losses) == {"mse", "invar", "total"} and losses["invar"] > 0
+    losses["invar"].backward()
+    grads = [p.grad for p in policy.net["unet"].parameters()]
+    assert any(g is not None and g.abs().sum() > 0 for g in grads)
+
+    # A network that predicts the true noise implies the demonstrated chunk exactly.
+    x0 = policy._scale(batch["actions"][:, 1:1 + P])
+    alphas = policy.train_scheduler.alphas_cumprod
+
+    class Oracle(torch.nn.Module):
+        def forward(self, noisy, t, cond):
+            a = alphas[t][:, None, None].to(noisy)
+            return (noisy - a.sqrt() * x0) / (1 - a).sqrt()
+
+    policy.net["unet"] = Oracle()
+    exact = policy.losses(batch)
+    assert float(exact["invar"]) < 1e-6 and float(exact["mse"]) < 1.0
+
+
+def test_configs_that_cannot_hold_a_window_are_refused():
+    rng = np.random.default_rng(0)
+    config = dp_config(seq_length=P)
+    with pytest.raises(ConfigError, match="seq_length must be at least"):
+        build_policy(config, _stats(config, rng))
+    with pytest.raises(ConfigError, match="action_horizon must be at most pred_horizon"):
+        dp_config(action_horizon=P + 1)
+
+
+def test_a_diffusion_policy_trains_and_its_loss_goes_down(tmp_path):
+    data = synthetic_dataset(tmp_path / "d.hdf5", demos=6, length=30, images=False)
+    config = dp_config(steps=400, lr=3e-3, batch_size=16, valid_every=100,
+                       checkpoint_every=100, state_keys=["fingers", "object_in_tcp"])
+    train(config, data, tmp_path / "run", progress=False)
+    with open(tmp_path / "run" / "log.csv", newline="") as f:
+        totals = [float(r["total"]) for r in csv.DictReader(f)]
+    assert len(totals) == 400
+    assert np.mean(totals[-50:]) < 0.7 * np.mean(totals[:50]), (totals[:5], totals[-5:])
+    ckpt = load_checkpoint(tmp_path / "run" / "last.pt")
+    assert isinstance(ckpt.policy, DiffusionPolicy) and RANGE_KEY in ckpt.stats
+    # the average weights moved away from the initial ones and differ from the last ones
+    net, ema = ckpt.policy.net.state_dict(), ckpt.policy.ema.state_dict()
+    assert any(not torch.equal(net[k], ema[k]) for k in net)
+
+
+def test_rollout_is_deterministic_and_executes_part_of_each_chunk(tmp_path, abstract_plant):
+    from pydrake.systems.analysis import Simulator
+
+    from legato_drake import conventions
+    from legato_drake.diagram import object_bodies
+    from legato_drake.systems.episode_recorder import EpisodeRecorder
+    from legato_drake.systems.policy_controller import PolicyController
+
+    rng = np.random.default_rng(0)
+    config = dp_config("dp_reltraj", state_keys=["fingers"])
+    torch.manual_seed(0)
+    path = tmp_path / "dp.pt"
+    stats = _stats(config, rng)
+    save_checkpoint(path, Checkpoint(config, stats, build_policy(config, stats)))
+    plant, _, robot, _ = abstract_plant
+    features = EpisodeRecorder(plant, robot.tcp_frame, images=False,
+                               object_bodies=object_bodies(plant, robot))
+    controller = PolicyController(path, features)
+
+    def run():
+        context = controller.CreateDefaultContext()
+        controller.get_plant_state_input_port().FixValue(
+            context, plant.GetPositionsAndVelocities(plant.CreateDefaultContext()))
+        controller.get_commanded_pose_input_port().FixValue(context, [0, 0, 0.8, 1, 0, 0, 0])
+        simulator = Simulator(controller, context)
+        actions, decisions = [], []
+        for k in range(7):
+            simulator.AdvanceTo(conventions.HOMING_DURATION + k * conventions.POLICY_PERIOD
+                                + 0.0015)
+            actions.append(controller.GetOutputPort("action").Eval(context).copy())
+            decisions.append(controller.policy_state(context).policy.decisions)
+        return np.array(actions), decisions, controller.policy_state(context).policy
+
+    actions, decisions, state = run()
+    assert decisions == [1, 1, 1, 2, 2, 2, 3]  # a new chunk every action_horizon steps
+    assert len(state.window) == config.obs_horizon
+    assert set(np.unique(actions[:, 6])) <= {0.0, 1.0} and np.isfinite(actions).all()
+    again, _, _ = run()  # a fresh context starts afresh: the same actions
+    np.testing.assert_array_equal(actions, again)
