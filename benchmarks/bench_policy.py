@@ -1,16 +1,20 @@
 """Policy inference time per 10 Hz step on the CPU (one torch thread, as in evaluation).
 
-Times the ``PolicyController``'s whole update (observation, network, RNN state) for the small
-state config, the small image config and the paper config (untrained weights: the time does not
-depend on them), median and p95 over --steps steps. The acceptance bar is 20 ms per step for
-the small configs. Usage:
+Times the ``PolicyController``'s whole update (observation, network, rollout state) for the
+small state config, the small image config, the paper config and the Diffusion Policy state
+configs (untrained weights: the time does not depend on them), median, p95 and max over
+--steps steps. A Diffusion Policy samples a chunk every ``action_horizon`` steps (DDIM,
+``inference_steps``) and only reads its observation in between, so its max is the re-plan.
+The bars: 20 ms per step for the small recurrent configs, 30 ms per re-plan for the Diffusion
+Policy state configs. Usage:
 
-    python benchmarks/bench_policy.py [--steps 100] [--threads 1]
+    python benchmarks/bench_policy.py [--steps 100] [--threads 1] [--json]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from pathlib import Path
 
@@ -24,7 +28,7 @@ from legato_drake.data.derived import observation_sizes
 from legato_drake.diagram import build_plant, object_bodies
 from legato_drake.learning.checkpoint import Checkpoint
 from legato_drake.learning.config import load_config
-from legato_drake.learning.policies import RecurrentGMMPolicy
+from legato_drake.learning.registry import build_policy, extra_stats
 from legato_drake.scenario import Scenario
 from legato_drake.summary import format_table
 from legato_drake.systems.episode_recorder import EpisodeRecorder
@@ -39,7 +43,8 @@ def time_controller(config_name: str, steps: int) -> list[float]:
     config = load_config(CONFIGS / f"{config_name}.yaml")
     stats = {k: {"mean": np.zeros(d, np.float32), "std": np.ones(d, np.float32)}
              for k, d in DIMS.items()}
-    ckpt = Checkpoint(config, stats, RecurrentGMMPolicy(config, stats).eval())
+    stats.update(extra_stats(config, [np.zeros((40, 7))]))
+    ckpt = Checkpoint(config, stats, build_policy(config, stats).eval())
     plant, _, robot, _ = build_plant(Scenario(embodiment="abstract"), DiagramBuilder())
     if config.obs_mode == "state":
         features = EpisodeRecorder(plant, robot.tcp_frame, images=False,
@@ -70,15 +75,25 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=100)
     parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--configs", default="legato_small_state,legato_small_image,"
-                                             "legato_paper")
+                                             "legato_paper,dp_velocity_state,dp_reltraj_state")
+    parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     rows = []
     for name in args.configs.split(","):
         times = 1e3 * np.array(time_controller(name, args.steps))
-        rows.append([name, float(np.median(times)), float(np.percentile(times, 95)),
-                     "yes" if np.median(times) <= 20.0 else "no"])
-    print(format_table(["config", "median ms/step", "p95 ms/step", "<= 20 ms"], rows))
+        chunked = name.startswith("dp_")
+        worst, bar = float(times.max()), 30.0 if chunked else 20.0
+        rows.append(dict(config=name, median_ms=float(np.median(times)),
+                         p95_ms=float(np.percentile(times, 95)), max_ms=worst, bar_ms=bar,
+                         meets_bar=bool((worst if chunked else np.median(times)) <= bar)))
+    if args.json:
+        print(json.dumps(rows, indent=1))
+        return
+    print(format_table(["config", "median ms/step", "p95 ms/step", "max ms/step",
+                        "bar ms", "meets bar"],
+                       [[r["config"], r["median_ms"], r["p95_ms"], r["max_ms"], r["bar_ms"],
+                         "yes" if r["meets_bar"] else "no"] for r in rows]))
 
 
 if __name__ == "__main__":

@@ -10,13 +10,15 @@ from legato_drake.learning.checkpoint import load_checkpoint
 from legato_drake.models import CHECKPOINTS_DIR, shipped_checkpoint
 from legato_drake.pipelines.evaluate import EVAL_SEED0
 from legato_drake.scenario import Scenario
+from legato_drake.tasks import TASKS
 
 SHIPPED = sorted(CHECKPOINTS_DIR.glob("*.pt"))
 MAX_BYTES = 5 * 2**20
 
 
-def test_the_lid_policy_is_shipped():
-    assert shipped_checkpoint("lid") in SHIPPED
+@pytest.mark.parametrize("task", sorted(TASKS))
+def test_every_task_has_a_shipped_policy(task):
+    assert shipped_checkpoint(task) in SHIPPED
 
 
 @pytest.mark.parametrize("path", SHIPPED, ids=[p.stem for p in SHIPPED])
