@@ -53,7 +53,7 @@ from legato_drake.invariants import (
     rotation_vector_to_quaternion,
 )
 from legato_drake.learning.config import LearningConfig
-from legato_drake.learning.encoders import ImageEncoder
+from legato_drake.learning.encoders import ImageEncoder, encode_sequence
 from legato_drake.learning.family import PolicyFamily, Stats
 from legato_drake.learning.normalization import Normalizer
 
@@ -208,12 +208,7 @@ class _Conditioner(nn.Module):
                          + config.feature_dim * len(image_keys))
 
     def forward(self, obs: Mapping[str, torch.Tensor]) -> torch.Tensor:
-        parts = []
-        for key in self.image_keys:
-            image = obs[key]
-            B, T = image.shape[:2]
-            parts.append(self.encoders[key](image.reshape(B * T, *image.shape[2:]))
-                         .reshape(B, T, -1))
+        parts = [encode_sequence(self.encoders[k], obs[k]) for k in self.image_keys]
         parts += [self.normalizers[k](obs[k]) for k in self.low_dim_keys]
         return torch.cat(parts, -1).flatten(1)
 

@@ -97,3 +97,9 @@ class ImageEncoder(nn.Module):
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         points = self.keypoints(self.trunk(image))
         return self.linear(points.flatten(1))
+
+
+def encode_sequence(encoder: nn.Module, images: torch.Tensor) -> torch.Tensor:
+    """Images (B, T, 1, H, W) -> features (B, T, F), every step through ``encoder``."""
+    B, T = images.shape[:2]
+    return encoder(images.reshape(B * T, *images.shape[2:])).reshape(B, T, -1)

@@ -38,7 +38,7 @@ from legato_drake.invariants import (
     invariant_loss,
 )
 from legato_drake.learning.config import LearningConfig
-from legato_drake.learning.encoders import ImageEncoder
+from legato_drake.learning.encoders import ImageEncoder, encode_sequence
 from legato_drake.learning.family import PolicyFamily, Stats
 from legato_drake.learning.normalization import Normalizer
 
@@ -139,12 +139,7 @@ class RecurrentGMMPolicy(PolicyFamily):
 
     def features(self, obs: Mapping[str, torch.Tensor]) -> torch.Tensor:
         """Raw observations (B, T, ...) -> the LSTM's input (B, T, F)."""
-        parts = []
-        for key in self.image_keys:
-            image = obs[key]
-            B, T = image.shape[:2]
-            parts.append(self.encoders[key](image.reshape(B * T, *image.shape[2:]))
-                         .reshape(B, T, -1))
+        parts = [encode_sequence(self.encoders[k], obs[k]) for k in self.image_keys]
         parts += [self._low_dim(k, obs[k]) for k in self.low_dim_keys]
         return torch.cat(parts, -1)
 
