@@ -145,14 +145,21 @@ def check_embodiment(emb: Embodiment) -> None:
                               f"of {emb.model}; frames: {', '.join(frames)}")
 
 
+def _check_fields(raw: dict, valid: tuple[str, ...] | list[str], where: str = "") -> None:
+    """A ConfigError naming the unknown keys of mapping ``raw`` (at ``where``) and the valid
+    ones."""
+    unknown = set(raw) - set(valid)
+    if unknown:
+        place = f"{where}: " if where else ""
+        raise ConfigError(f"{place}unknown field(s) {sorted(map(str, unknown))}; valid fields: "
+                          f"{', '.join(valid)}")
+
+
 def _parse(raw: object, folder: Path) -> Embodiment:
     if not isinstance(raw, dict):
         raise ConfigError("expected a mapping of fields at the top level, got "
                           f"{_short(raw)}")
-    unknown = set(raw) - set(REQUIRED) - set(OPTIONAL)
-    if unknown:
-        raise ConfigError(f"unknown field(s) {sorted(map(str, unknown))}; valid fields: "
-                          f"{', '.join(REQUIRED + OPTIONAL)}")
+    _check_fields(raw, (*REQUIRED, *OPTIONAL))
     missing = [k for k in REQUIRED if raw.get(k) is None]
     if missing:
         raise ConfigError(f"missing required field(s) {missing}")
@@ -314,10 +321,7 @@ def _write_actuated_copy(urdf: Path, joints: list[str]) -> Path:
 
 def _ik_settings(raw: dict) -> IkSettings:
     """IkSettings from the ``ik`` mapping, every field checked for its type and range."""
-    bad = set(raw) - set(IK_FIELDS)
-    if bad:
-        raise ConfigError(f"ik: unknown field(s) {sorted(map(str, bad))}; valid fields: "
-                          f"{', '.join(IK_FIELDS)}")
+    _check_fields(raw, IK_FIELDS, "ik")
     values: dict[str, object] = {}
     for key, value in raw.items():
         where = f"ik.{key}"
@@ -367,10 +371,7 @@ def _leg_follower(value: object) -> LegFollower:
     if not isinstance(value, dict):
         raise ConfigError("leg_follower: expected a mapping {body_joints: [...], leg_joints: "
                           f"[...], geometry: {{...}}, ground_z: Z}}, got {_short(value)}")
-    unknown = set(value) - set(LEG_FOLLOWER_FIELDS)
-    if unknown:
-        raise ConfigError(f"leg_follower: unknown field(s) {sorted(map(str, unknown))}; valid "
-                          f"fields: {', '.join(LEG_FOLLOWER_FIELDS)}")
+    _check_fields(value, LEG_FOLLOWER_FIELDS, "leg_follower")
     missing = [k for k in ("body_joints", "leg_joints") if value.get(k) is None]
     if missing:
         raise ConfigError(f"leg_follower: missing required field(s) {missing}")
@@ -393,10 +394,7 @@ def _leg_geometry(value: object) -> LegGeometry:
     if not isinstance(value, dict):
         raise ConfigError(f"leg_follower.geometry: expected a mapping of {', '.join(valid)}, "
                           f"got {_short(value)}")
-    unknown = set(value) - set(valid)
-    if unknown:
-        raise ConfigError(f"leg_follower.geometry: unknown field(s) "
-                          f"{sorted(map(str, unknown))}; valid fields: {', '.join(valid)}")
+    _check_fields(value, valid, "leg_follower.geometry")
     fields: dict[str, object] = {}
     for key, item in value.items():
         where = f"leg_follower.geometry.{key}"
