@@ -303,6 +303,34 @@ def cmd_select(args: argparse.Namespace) -> int:
     return 0
 
 
+def _csv_list(value: str | None, kind: type = str) -> list | None:
+    """``"a,b"`` -> ``["a", "b"]`` (None stays None)."""
+    if value is None:
+        return None
+    try:
+        return [kind(v.strip()) for v in value.split(",") if v.strip()]
+    except ValueError:
+        raise ConfigError(f"expected a comma-separated list of {kind.__name__}s, got "
+                          f"{value!r}") from None
+
+
+def cmd_experiment(args: argparse.Namespace) -> int:
+    """Runs a grid (collect -> train -> select -> evaluate), resumable; prints its summary."""
+    from legato_drake.executor import make_backend
+    from legato_drake.experiment.grid import load_grid, subset
+    from legato_drake.experiment.runner import run_experiment
+
+    grid = subset(load_grid(args.grid), _csv_list(args.methods), _csv_list(args.tasks),
+                  _csv_list(args.train_seeds, int))
+    check_output_dir(Path(args.out), "--out")
+    executor = make_backend(args.backend, args.workers, args.ray_address)
+    report = run_experiment(grid, args.out, executor)
+    print((Path(args.out) / "summary.md").read_text())
+    log.info("ran %s, already done %s; results in %s", report.ran, report.skipped,
+             Path(args.out) / "results.csv")
+    return 0
+
+
 def _trial_seeds(args: argparse.Namespace) -> tuple[int, int]:
     """evaluate's (seed0, trials) from ``--seeds A-B`` (demo's spelling) or ``--seed0`` and
     ``--trials`` (defaults 10000 and 50)."""
@@ -621,6 +649,27 @@ def build_parser() -> argparse.ArgumentParser:
                                "of another checkpoint, --duration, --seed0 or trial set is "
                                "refused")
     evaluate.set_defaults(func=cmd_evaluate)
+    experiment = verbs.add_parser(
+        "experiment", help="a whole study from a grid file: collect, train, select, evaluate",
+        description="Runs every unit of GRID (configs/experiments/*.yaml) not yet done in "
+                    "OUT: the datasets, one training run per method, task and training "
+                    "seed, checkpoint selection by validation rollouts, and the evaluation "
+                    "trials. Units are named by a hash of their inputs, so a rerun skips "
+                    "what is done and a killed run resumes. Writes OUT/results.csv (one row "
+                    "per trial), OUT/summary.md and OUT/figures/.")
+    experiment.add_argument("grid", help="grid file, e.g. configs/experiments/smoke.yaml")
+    experiment.add_argument("--out", required=True, help="experiment folder")
+    experiment.add_argument("--backend", default="local", choices=("local", "ray"),
+                            help="local worker processes (default) or a Ray cluster")
+    experiment.add_argument("--ray-address", default=None, metavar="ADDR",
+                            help="an existing Ray cluster (HOST:PORT or auto); default with "
+                                 "--backend ray: a local one of --workers CPUs")
+    experiment.add_argument("--workers", type=_int_at_least(1), default=None,
+                            help="jobs at a time (local default 1; Ray: the cluster's CPUs)")
+    experiment.add_argument("--methods", help="only these methods of the grid (a,b)")
+    experiment.add_argument("--tasks", help="only these tasks of the grid (a,b)")
+    experiment.add_argument("--train-seeds", help="only these training seeds (0,1)")
+    experiment.set_defaults(func=cmd_experiment)
     for sub in verbs.choices.values():  # -v also after the verb
         sub.add_argument("-v", "--verbose", action="store_true", default=argparse.SUPPRESS,
                          help="log debug messages")

@@ -17,9 +17,12 @@ Backends, behind one interface:
   early (an error, Ctrl-C), the jobs in flight are cancelled and their workers terminated
   (every pipeline writes its results per job, atomically, so a rerun resumes).
 
-A distributed backend (e.g. Ray: ``ray.remote(function).remote(job)`` per job, completions
-from ``ray.wait``) goes next to these two: it implements ``stream`` and ``make_executor``
-returns it when asked for.
+- ``RayExecutor``: jobs as Ray tasks on a Ray cluster (``pip install legato-drake[ray]``):
+  a local one started for this run, or an existing one at ``address`` (``ray start
+  --head``). Each job asks for the resources its ``resources`` attribute names (default one
+  CPU); a task whose worker dies is retried (``max_retries``), so a lost worker costs only its
+  job. Jobs and results travel by pickling, so nodes need only the installed package (jobs
+  that need files carry them: ``Blob``).
 
 Three ways to run jobs, all on ``stream``:
 
@@ -33,12 +36,19 @@ Three ways to run jobs, all on ``stream``:
 from __future__ import annotations
 
 import concurrent.futures as cf
+import hashlib
+import logging
 import multiprocessing
+import os
+import tempfile
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Generic, TypeVar
 
+from legato_drake.errors import ConfigError
+from legato_drake.files import atomic_write_bytes
 from legato_drake.progress import progress_bar
 
 Job = TypeVar("Job")
@@ -146,6 +156,91 @@ def _stop(pool: cf.ProcessPoolExecutor) -> None:
         process.join(timeout=10.0)
 
 
+class RayExecutor(Executor):
+    """Jobs as Ray tasks: on the cluster at ``address`` (``"auto"``, ``"HOST:PORT"``), or on a
+    local one started for this executor (``address=None``, ``workers`` CPUs). At most
+    ``workers`` jobs are in flight (default: the cluster's CPUs); each asks for
+    ``job.resources`` (a dict such as ``{"num_cpus": 1, "num_gpus": 1}``; default one CPU).
+    A task whose worker process dies is run again, up to ``max_retries`` times."""
+
+    def __init__(self, address: str | None = None, workers: int | None = None,
+                 max_retries: int = 3):
+        try:
+            import ray
+        except ImportError:
+            raise ConfigError("--backend ray: Ray is not installed (pip install "
+                              "'legato-drake[ray]')") from None
+        os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # no network calls
+        if not ray.is_initialized():
+            options = dict(log_to_driver=False, logging_level=logging.WARNING,
+                           include_dashboard=False, configure_logging=True)
+            try:
+                if address is None:
+                    ray.init(num_cpus=workers, **options)
+                else:
+                    ray.init(address=address, **options)
+            except (ConnectionError, RuntimeError, ValueError) as e:
+                raise ConfigError(f"--ray-address {address}: cannot connect to a Ray "
+                                  f"cluster: {e}") from None
+        self._ray = ray
+        self.max_retries = max_retries
+        cpus = int(ray.cluster_resources().get("CPU", 1))
+        self.workers = workers or max(cpus, 1)
+
+    @property
+    def gpus(self) -> int:
+        """GPUs in the cluster (training jobs ask for one where there are any)."""
+        return int(self._ray.cluster_resources().get("GPU", 0))
+
+    def stream(self, function: Callable[[Job], Result],
+               next_job: Callable[[int], Job | None]) -> Iterator[Result]:
+        ray = self._ray
+        remote = ray.remote(max_retries=self.max_retries)(function)
+        in_flight: list = []  # object refs, in the order they were started
+        completed = False
+        try:
+            while True:
+                while len(in_flight) < self.workers and \
+                        (job := next_job(len(in_flight))) is not None:
+                    resources = dict(getattr(job, "resources", None) or {"num_cpus": 1})
+                    in_flight.append(remote.options(**resources).remote(job))
+                if not in_flight:
+                    completed = True
+                    return
+                done, _ = ray.wait(in_flight, num_returns=1)
+                for ref in done:
+                    in_flight.remove(ref)
+                    yield ray.get(ref)
+        finally:
+            if not completed:
+                for ref in in_flight:
+                    ray.cancel(ref, force=True)
+
+
+@dataclass(frozen=True, eq=False)
+class Blob:
+    """A file that travels with a job (a dataset, a checkpoint): its name, SHA-256 and bytes.
+    ``path()`` writes it once per worker machine into a cache folder named by its hash and
+    returns where it is, so a job runs the same on a node that shares no files."""
+
+    name: str
+    sha256: str
+    data: bytes
+
+    @classmethod
+    def of(cls, path: str | Path) -> Blob:
+        """The blob of a file."""
+        data = Path(path).read_bytes()
+        return cls(Path(path).name, hashlib.sha256(data).hexdigest(), data)
+
+    def path(self) -> Path:
+        """The file on this machine (written on first use; atomic, so workers may race)."""
+        target = Path(tempfile.gettempdir()) / "legato_drake_blobs" / self.sha256 / self.name
+        if not target.is_file():
+            atomic_write_bytes(target, self.data)
+        return target
+
+
 def make_executor(workers: int = 1, jobs: int | None = None) -> Executor:
     """The executor for ``--workers N``: serial for one worker (or, when ``jobs`` says how
     many jobs there are, for at most one job), else ``N`` worker processes (never more than
@@ -157,6 +252,26 @@ def make_executor(workers: int = 1, jobs: int | None = None) -> Executor:
     if workers <= 1:
         return SerialExecutor()
     return ProcessExecutor(workers)
+
+
+BACKENDS = ("local", "ray")
+
+
+def make_backend(backend: str = "local", workers: int | None = None,
+                 address: str | None = None) -> Executor:
+    """The executor of ``--backend local|ray [--workers N] [--ray-address ADDR]``: the local
+    process pool (``workers`` processes, default 1: serial), or Ray (a local cluster of
+    ``workers`` CPUs, or the cluster at ``address``)."""
+    if backend not in BACKENDS:
+        raise ConfigError(f"--backend: unknown {backend!r}; valid values: {', '.join(BACKENDS)}")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        raise ConfigError(f"--workers must be an integer >= 1, got {workers!r}")
+    if backend == "ray":
+        return RayExecutor(address, workers)
+    if address is not None:
+        raise ConfigError("--ray-address: only with --backend ray")
+    return make_executor(workers or 1)
 
 
 

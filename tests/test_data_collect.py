@@ -15,7 +15,6 @@ import pytest
 
 from legato_drake.data.layout import DatasetError, check_file, open_dataset, sorted_demos
 from legato_drake.data.synthetic import synthetic_episode
-from legato_drake.data.writer import write_dataset
 from legato_drake.pipelines import collect as collect_module
 from legato_drake.pipelines.collect import collect, parts_dir, record_episode
 from legato_drake.scenario import Scenario
@@ -56,7 +55,7 @@ def test_state_only_collect_writes_what_the_recorder_recorded(tmp_path):
 
 
 class FakeRunner:
-    """Stands in for ``run_job``: writes a synthetic part; seeds = 1 mod 3 fail."""
+    """Stands in for ``run_job``: a synthetic part's bytes; seeds = 1 mod 3 fail."""
 
     def __init__(self):
         self.seeds: list[int] = []
@@ -69,8 +68,7 @@ class FakeRunner:
         episode.attrs.update(key=job.key)
         outcome = dict(key=job.key, seed=seed, success=ok, reason="" if ok else "dropped it",
                        num_samples=3, wall_time=0.0, source="")
-        write_dataset(job.part, [episode], extra=dict(outcome=outcome))
-        return outcome
+        return outcome, collect_module._part_bytes([episode], outcome)
 
 
 def test_keeps_the_first_successful_seeds_and_extends(tmp_path, monkeypatch):

@@ -20,6 +20,7 @@ import dataclasses
 import json
 import logging
 import shutil
+import tempfile
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -33,7 +34,7 @@ from legato_drake.data.writer import Episode, env_args_for, merge_demos, write_d
 from legato_drake.diagram import build_diagram
 from legato_drake.episode import simulate
 from legato_drake.executor import Executor, make_executor
-from legato_drake.files import atomic_write_text
+from legato_drake.files import atomic_write_bytes, atomic_write_text
 from legato_drake.progress import progress_bar
 from legato_drake.scenario import ExpertNoiseConfig, Scenario
 
@@ -121,9 +122,11 @@ def _outcome(job: CollectJob, success: bool, reason: str, samples: int, wall: fl
                 source=job.attrs.get("source", ""))
 
 
-def run_job(job: CollectJob) -> dict:
-    """Records ``job`` and writes its part file atomically (in a worker process, or here);
-    returns the outcome. An episode that raises is a failure with the error as its reason."""
+def run_job(job: CollectJob) -> tuple[dict, bytes]:
+    """Records ``job`` (in a worker process, or here) and returns its outcome and the bytes of
+    its part file, which the collecting process writes (workers write nothing of the
+    dataset, so they may be on another machine). An episode that raises is a failure with
+    the error as its reason."""
     start = time.perf_counter()
     try:
         _, episode = record_episode(job.scenario)
@@ -131,13 +134,19 @@ def run_job(job: CollectJob) -> dict:
         log.warning("%s failed with an error: %s", job.key, e)
         outcome = _outcome(job, False, f"error: {type(e).__name__}: {e}", 0,
                            time.perf_counter() - start)
-        write_dataset(job.part, [], extra=dict(outcome=outcome))
-        return outcome
+        return outcome, _part_bytes([], outcome)
     episode.attrs.update(job.attrs, key=job.key)
     outcome = _outcome(job, episode.success, str(episode.attrs["reason"]), len(episode),
                        time.perf_counter() - start)
-    write_dataset(job.part, [episode], extra=dict(outcome=outcome))
-    return outcome
+    return outcome, _part_bytes([episode], outcome)
+
+
+def _part_bytes(episodes: list[Episode], outcome: dict) -> bytes:
+    """A part file's bytes (written through a private temporary file)."""
+    with tempfile.TemporaryDirectory(prefix="legato_drake_part_") as folder:
+        path = Path(folder) / "part.hdf5"
+        write_dataset(path, episodes, extra=dict(outcome=outcome))
+        return path.read_bytes()
 
 
 def read_part(path: Path) -> dict | None:
@@ -256,15 +265,18 @@ def _schedule(jobs: list[CollectJob], outcomes: dict[str, dict], needed: int,
             return None  # wait: the episodes in flight may be enough
         return pending.popleft()
 
-    def record(outcome: dict) -> None:
+    parts = {job.key: job.part for job in jobs}
+
+    def record(outcome: dict, part: bytes) -> None:
+        atomic_write_bytes(parts[outcome["key"]], part)
         outcomes[outcome["key"]] = outcome
         if _keepable(outcome, keep_failures):
             bar.update(1)
         bar.set_postfix(tried=len(outcomes),
                         failed=sum(not o["success"] for o in outcomes.values()))
 
-    for outcome in executor.stream(run_job, next_job):
-        record(outcome)
+    for outcome, part in executor.stream(run_job, next_job):
+        record(outcome, part)
 
 
 def _up_to_date(out: Path, config: dict) -> dict | None:

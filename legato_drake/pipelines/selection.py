@@ -50,8 +50,6 @@ def select_checkpoint(run: str | Path, task: str, embodiment: str = "abstract",
     ``selected.pt`` and ``selection.json``; returns the summary ``{"selected", "step",
     "seeds", "embodiment", "task", "candidates": [{"name", "step", "successes",
     "trials"}]}``."""
-    from legato_drake.learning.checkpoint import load_checkpoint, save_checkpoint
-
     run = Path(run)
     if not run.is_dir():
         raise ConfigError(f"--run {run}: not a training run folder")
@@ -71,6 +69,17 @@ def select_checkpoint(run: str | Path, task: str, embodiment: str = "abstract",
                          trials=len(doc["trials"])))
         log.info("%s (step %d): %d/%d on validation seeds %d-%d", path.name,
                  doc["checkpoint_step"], successes, len(doc["trials"]), seeds[0], seeds[-1])
+    return write_selection(run, rows, seeds, embodiment, task)
+
+
+def write_selection(run: Path, rows: list[dict], seeds: list[int], embodiment: str,
+                    task: str) -> dict:
+    """Picks the candidate with the most successes (the later on ties) among ``rows``
+    (``{"name", "step", "successes", "trials"}`` per candidate of ``run``), writes it as
+    ``run/selected.pt`` recording its selection, and ``run/selection.json``; returns the
+    summary."""
+    from legato_drake.learning.checkpoint import load_checkpoint, save_checkpoint
+
     best = max(rows, key=lambda r: (r["successes"], r["step"]))
     summary = dict(selected=best["name"], step=best["step"], seeds=seeds,
                    embodiment=embodiment, task=task, candidates=rows)

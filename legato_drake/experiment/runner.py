@@ -1,0 +1,347 @@
+"""Running a grid: collect -> train -> select -> evaluate, on any executor backend, resumable.
+
+``run_experiment(grid, out, executor)`` lays out ``out`` as::
+
+    grid.json                          the grid as run last
+    datasets/<task>-<robot>-<key>.hdf5 one per task (``collect``, itself resumable)
+    runs/<method>-<task>-seed<s>-<key>/ one per method, task and training seed: the run's
+                                       files, selection.json and selected.pt; unit.json last
+    trials.jsonl                       every finished trial (selection and evaluation), one
+                                       JSON row per line, appended and flushed as each ends
+    results.csv                        the evaluation trials (rewritten atomically)
+    summary.md, figures/*.png          the tables and figures (``experiment.report``)
+
+Datasets are collected first (their episodes run on the executor); then one stream of jobs
+holds the trainings, each run's selection trials once its training is there, and its
+evaluation trials once its selection is done. A unit is done when its record exists (a
+run's ``unit.json``, a trial's row under its key), so a rerun of a finished grid runs
+nothing, and a killed one resumes: only the units in flight are lost (a training restarts
+from its beginning).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import json
+import logging
+import os
+from collections import deque
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from legato_drake.errors import ConfigError
+from legato_drake.executor import Blob, Executor, RayExecutor
+from legato_drake.experiment.grid import Grid, MethodSpec, grid_dict
+from legato_drake.experiment.units import TrainUnit, TrialUnit, run_unit, unit_key
+from legato_drake.files import atomic_write_bytes, atomic_write_text
+from legato_drake.learning.config import LearningConfig
+from legato_drake.pipelines.collect import collect
+from legato_drake.pipelines.evaluate import TrialJob, trial_order, trial_scenario
+from legato_drake.pipelines.selection import candidates, write_selection
+from legato_drake.progress import progress_bar
+from legato_drake.scenario import ExpertNoiseConfig
+
+log = logging.getLogger(__name__)
+
+RESULT_FIELDS = ("method", "train_seed", "embodiment", "task", "seed", "success", "reason",
+                 "success_time", "episode_time", "wall_time", "checkpoint_step", "run", "key")
+"""The columns of ``results.csv``."""
+
+
+@dataclass
+class RunPlan:
+    """One training run of the grid and what follows it (its trials)."""
+
+    method: MethodSpec
+    task: str
+    seed: int
+    config: LearningConfig
+    data: Path
+    key: str
+    folder: Path
+    pending: set[str] = field(default_factory=set)
+    """Keys of its selection trials not yet finished."""
+
+    @property
+    def done(self) -> bool:
+        """Whether its training is recorded (``unit.json`` is written last)."""
+        path = self.folder / "unit.json"
+        return path.is_file() and json.loads(path.read_text()).get("key") == self.key
+
+
+class TrialLedger:
+    """The finished trials of an experiment, by key: ``trials.jsonl``, one row per line,
+    appended and flushed to disk as each trial ends (a line cut short by a kill is
+    ignored on reading, and its trial runs again)."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        self.rows: dict[str, dict] = {}
+        if path.is_file():
+            text = path.read_text()
+            for line in text.splitlines():
+                try:
+                    row = json.loads(line)
+                except ValueError:
+                    continue
+                self.rows.setdefault(row["key"], row)
+            if text and not text.endswith("\n"):
+                with open(path, "a") as f:
+                    f.write("\n")  # end the line cut short: the next row starts afresh
+
+    def __contains__(self, key: str) -> bool:
+        return key in self.rows
+
+    def add(self, row: dict) -> None:
+        """Records a finished trial."""
+        self.rows[row["key"]] = row
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with open(self.path, "a") as f:
+            f.write(json.dumps(row) + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+
+
+@dataclass
+class ExperimentReport:
+    """What ``run_experiment`` did: units run now, units found done, the evaluation rows."""
+
+    out: Path
+    ran: dict[str, int]
+    skipped: dict[str, int]
+    results: list[dict]
+
+
+def dataset_path(grid: Grid, task: str, out: Path) -> Path:
+    """Where the dataset of ``task`` goes (named by its unit key)."""
+    spec = grid.dataset_for(task)
+    key = unit_key("dataset", dataclasses.asdict(spec))
+    return out / "datasets" / f"{task}-{spec.embodiment}-{key[:10]}.hdf5"
+
+
+def plan_runs(grid: Grid, out: Path) -> list[RunPlan]:
+    """The training runs of the grid: every method x evaluated task x training seed."""
+    runs = []
+    for task in grid.evaluation.tasks:
+        data = dataset_path(grid, task, out)
+        for method in grid.methods:
+            for seed in grid.training.seeds:
+                config = grid.learning_config(method, seed)
+                key = unit_key("run", data.name, config.to_dict())
+                folder = out / "runs" / f"{method.name}-{task}-seed{seed}-{key[:10]}"
+                runs.append(RunPlan(method, task, seed, config, data, key, folder))
+    return runs
+
+
+def _device(grid: Grid, executor: Executor) -> str:
+    if grid.training.device != "auto":
+        return grid.training.device
+    if isinstance(executor, RayExecutor):
+        return "cuda" if executor.gpus else "cpu"
+    import torch
+
+    return "cuda" if torch.cuda.is_available() else "cpu"
+
+
+class _Scheduler:
+    """Hands out the jobs that are ready and records what finishes."""
+
+    def __init__(self, grid: Grid, out: Path, runs: list[RunPlan], device: str):
+        self.grid, self.out, self.runs, self.device = grid, out, runs, device
+        self.ledger = TrialLedger(out / "trials.jsonl")
+        self.ready: deque = deque()
+        self.by_key: dict[str, tuple[RunPlan, dict | None]] = {}
+        """Units handed out or queued: their run, and a trial's row fields (None: the
+        training)."""
+        self.ran = {"trainings": 0, "trials": 0}
+        self.skipped = {"trainings": 0, "trials": 0}
+        self.bar = None
+
+    def start(self) -> None:
+        """Queues what can start: the trainings not done, the trials of the runs that are."""
+        for run in self.runs:
+            if run.done:
+                self.skipped["trainings"] += 1
+                self._after_training(run)
+            else:
+                unit = TrainUnit(run.key, run.config.to_dict(), Blob.of(run.data),
+                                 self.grid.training.threads, self.device)
+                self.by_key[run.key] = (run, None)
+                self.ready.appendleft(unit)  # trainings first: the longest units
+
+    def next_job(self, in_flight: int) -> TrainUnit | TrialUnit | None:
+        return self.ready.popleft() if self.ready else None
+
+    def expected(self) -> int:
+        """Units still to run (trials of runs not trained yet estimated from their
+        configs' snapshots), for the progress bar."""
+        total = len(self.ready)
+        for run in self.runs:
+            if not run.done:
+                snapshots = run.config.steps // run.config.snapshot_every \
+                    if run.config.snapshot_every else 0
+                total += self._selection_count(max(snapshots, 1)) + self._eval_count()
+        return total
+
+    def _selection_count(self, candidates: int) -> int:
+        return candidates * self.grid.selection.trials
+
+    def _eval_count(self) -> int:
+        return len(self.grid.evaluation.embodiments) * self.grid.evaluation.trials
+
+    def record(self, key: str, result: object) -> None:
+        run, info = self.by_key.pop(key)
+        if info is not None:
+            row = {**result, **info, "key": key}
+            self.ledger.add(row)
+            self.ran["trials"] += 1
+            if row["phase"] == "select":
+                run.pending.discard(key)
+                if not run.pending:
+                    self._after_selection(run)
+        else:
+            self._write_run(run, result)
+            self.ran["trainings"] += 1
+            self._after_training(run)
+        if self.bar is not None:
+            self.bar.update(1)
+
+    def _write_run(self, run: RunPlan, files: dict[str, bytes]) -> None:
+        for name, data in files.items():
+            atomic_write_bytes(run.folder / name, data)
+        unit = dict(key=run.key, method=run.method.name, task=run.task, seed=run.seed,
+                    data=run.data.name, config=run.config.to_dict())
+        atomic_write_text(run.folder / "unit.json", json.dumps(unit, indent=1))
+        log.info("trained %s (%s, seed %d) into %s", run.method.name, run.task, run.seed,
+                 run.folder)
+
+    def _after_training(self, run: RunPlan) -> None:
+        selection = self.grid.selection
+        if not selection.trials:
+            self._queue_evaluation(run, run.folder / "last.pt")
+            return
+        seeds = range(selection.seed0, selection.seed0 + selection.trials)
+        for path in candidates(run.folder):
+            blob, step = Blob.of(path), _step(path)
+            for i, seed in enumerate(seeds):
+                key = unit_key("trial", run.key, path.name, selection.embodiment, run.task,
+                               seed, self.grid.evaluation.duration)
+                if key in self.ledger:
+                    self.skipped["trials"] += 1
+                    continue
+                run.pending.add(key)
+                self._queue_trial(run, key, path, blob, selection.embodiment, seed, i,
+                                  dict(phase="select", candidate=path.name,
+                                       checkpoint_step=step))
+        if not run.pending:
+            self._after_selection(run)
+
+    def _after_selection(self, run: RunPlan) -> None:
+        selection = self.grid.selection
+        seeds = list(range(selection.seed0, selection.seed0 + selection.trials))
+        rows = []
+        for path in candidates(run.folder):
+            trials = [r for r in self.ledger.rows.values() if r["phase"] == "select" and
+                      r["run"] == run.folder.name and r["candidate"] == path.name]
+            rows.append(dict(name=path.name, step=_step(path),
+                             successes=sum(bool(t["success"]) for t in trials),
+                             trials=len(trials)))
+        recorded = run.folder / "selection.json"
+        if recorded.is_file() and (run.folder / "selected.pt").is_file() and \
+                json.loads(recorded.read_text()).get("candidates") == rows:
+            self._queue_evaluation(run, run.folder / "selected.pt")  # chosen before
+            return
+        summary = write_selection(run.folder, rows, seeds, selection.embodiment, run.task)
+        log.info("%s: selected %s (%d/%d on validation seeds %d-%d)", run.folder.name,
+                 summary["selected"], max(r["successes"] for r in rows), len(seeds),
+                 seeds[0], seeds[-1])
+        self._queue_evaluation(run, run.folder / "selected.pt")
+
+    def _queue_evaluation(self, run: RunPlan, checkpoint: Path) -> None:
+        evaluation, selection = self.grid.evaluation, self.grid.selection
+        blob, step = Blob.of(checkpoint), _step(checkpoint)
+        for embodiment in evaluation.embodiments:
+            for i in range(evaluation.trials):
+                seed = evaluation.seed0 + i
+                key = unit_key("trial", run.key, dataclasses.asdict(selection), embodiment,
+                               run.task, seed, evaluation.duration)
+                if key in self.ledger:
+                    self.skipped["trials"] += 1
+                    continue
+                self._queue_trial(run, key, checkpoint, blob, embodiment, seed, i,
+                                  dict(phase="eval", candidate=checkpoint.name,
+                                       checkpoint_step=step))
+
+    def _queue_trial(self, run: RunPlan, key: str, checkpoint: Path, blob: Blob,
+                     embodiment: str, seed: int, index: int, info: dict) -> None:
+        duration = self.grid.evaluation.duration or None
+        scenario = trial_scenario(embodiment, run.task, seed, checkpoint,
+                                  run.config.obs_mode == "image", duration)
+        job = TrialJob(run.method.name, index, scenario)
+        self.by_key[key] = (run, {**info, "method": run.method.name, "train_seed": run.seed,
+                                  "run": run.folder.name, "checkpoint_sha256": blob.sha256})
+        self.ready.append(TrialUnit(key, job, blob))
+
+
+def _step(checkpoint: Path) -> int:
+    """The training step of a checkpoint."""
+    from legato_drake.learning.checkpoint import load_checkpoint
+
+    return load_checkpoint(checkpoint).step
+
+
+def run_experiment(grid: Grid, out: str | Path, executor: Executor,
+                   progress: bool | None = None) -> ExperimentReport:
+    """Runs every unit of ``grid`` not yet done in ``out`` on ``executor``; writes the
+    results and the summary; returns what it did."""
+    from legato_drake.experiment.report import write_report
+
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out}: is an existing file, not an experiment folder")
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out / "grid.json", json.dumps(grid_dict(grid), indent=1))
+    collected = 0
+    for task in grid.evaluation.tasks:
+        spec = grid.dataset_for(task)
+        path = dataset_path(grid, task, out)
+        if not path.is_file():
+            collected += 1
+        collect(spec.task, spec.embodiment, spec.episodes, path, seed0=spec.seed0,
+                camera=spec.cameras, progress=progress, executor=executor,
+                expert_noise=ExpertNoiseConfig(spec.noise_mm / 1000, spec.noise_deg))
+    runs = plan_runs(grid, out)
+    scheduler = _Scheduler(grid, out, runs, _device(grid, executor))
+    scheduler.start()
+    scheduler.bar = progress_bar(progress=progress, total=scheduler.expected(),
+                                 desc=f"experiment {grid.name}", unit="unit")
+    for key, result in executor.stream(run_unit, scheduler.next_job):
+        scheduler.record(key, result)
+    scheduler.bar.close()
+    results = evaluation_rows(scheduler.ledger.rows.values(), runs)
+    write_results_csv(out / "results.csv", results)
+    write_report(grid, results, out)
+    ran = {"datasets": collected, **scheduler.ran}
+    skipped = {"datasets": len(grid.evaluation.tasks) - collected, **scheduler.skipped}
+    log.info("experiment %s: ran %s; already done %s", grid.name, ran, skipped)
+    return ExperimentReport(out, ran, skipped, results)
+
+
+def evaluation_rows(rows: Iterable[dict], runs: list[RunPlan]) -> list[dict]:
+    """The evaluation trials of the grid's runs (not of runs the grid no longer has), in
+    method, training seed, embodiment, task and seed order."""
+    order = {run.folder.name: i for i, run in enumerate(runs)}
+    chosen = [r for r in rows if r["phase"] == "eval" and r["run"] in order]
+    return sorted(chosen, key=lambda r: (order[r["run"]], *trial_order(r)))
+
+
+def write_results_csv(path: Path, rows: list[dict]) -> None:
+    """``results.csv``: one row per evaluation trial (atomically)."""
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=RESULT_FIELDS, extrasaction="ignore")
+    writer.writeheader()
+    writer.writerows(rows)
+    atomic_write_text(path, buffer.getvalue())

@@ -1,0 +1,83 @@
+"""The units of work of an experiment, as jobs for any executor backend.
+
+A unit is identified by ``unit_key``: a hash of everything its result depends on (a
+dataset's spec; a training run's dataset and resolved learning config; a trial's run,
+selection, embodiment, task, scene seed and duration). Finished units are recorded under
+their key, so a rerun skips them, and changing one input reruns only what depends on it.
+
+Jobs carry the files they need (``Blob``: a dataset, a checkpoint) and return what they made
+(a training run's files as bytes, a trial's row), so a worker may be a process here or a Ray
+task on a node that shares no files; the driver alone writes the experiment folder.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from legato_drake.executor import Blob
+from legato_drake.pipelines.evaluate import TrialJob, run_trial
+
+
+def unit_key(*parts: object) -> str:
+    """The key of a unit: the SHA-256 (hex, 16 digits) of its inputs as canonical JSON."""
+    text = json.dumps(parts, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class TrainUnit:
+    """One training run: its key, the resolved learning config (as a dict), the dataset, the
+    torch threads and the device it asks for."""
+
+    key: str
+    config: dict
+    data: Blob
+    threads: int = 1
+    device: str = "cpu"
+
+    @property
+    def resources(self) -> dict:
+        """What a Ray task of this unit asks for."""
+        return {"num_cpus": self.threads, "num_gpus": 1 if self.device == "cuda" else 0}
+
+
+@dataclass(frozen=True)
+class TrialUnit:
+    """One closed-loop trial: its key, the trial (its scenario's checkpoint is replaced by
+    the blob's copy on the worker) and the checkpoint it runs."""
+
+    key: str
+    trial: TrialJob
+    checkpoint: Blob
+
+    @property
+    def resources(self) -> dict:
+        """What a Ray task of this unit asks for."""
+        return {"num_cpus": 1}
+
+
+def run_unit(unit: TrainUnit | TrialUnit) -> tuple[str, object]:
+    """Runs one unit (in a worker, or here); returns ``(key, result)``: a training run's
+    files ``{name: bytes}``, or a trial's row."""
+    if isinstance(unit, TrialUnit):
+        scenario = unit.trial.scenario.replace(checkpoint=str(unit.checkpoint.path()))
+        return unit.key, run_trial(dataclasses.replace(unit.trial, scenario=scenario))
+    return unit.key, _train(unit)
+
+
+def _train(unit: TrainUnit) -> dict[str, bytes]:
+    import torch
+
+    from legato_drake.learning.config import config_from_dict
+    from legato_drake.learning.train import train
+
+    torch.set_num_threads(unit.threads)
+    config = config_from_dict({**unit.config, "cpu_threads": unit.threads}, unit.key)
+    with tempfile.TemporaryDirectory(prefix="legato_drake_train_") as folder:
+        train(config, unit.data.path(), folder, device=unit.device, progress=False)
+        return {p.name: p.read_bytes() for p in sorted(Path(folder).iterdir()) if p.is_file()}

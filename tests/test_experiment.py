@@ -1,0 +1,264 @@
+"""``legato-drake experiment``: the grid file, unit keys, the report, and the smoke grid end to
+end on the local backend and on a local Ray cluster, with a killed driver and a killed Ray
+worker."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from legato_drake.errors import ConfigError
+from legato_drake.experiment.grid import load_grid, subset
+from legato_drake.experiment.report import overall_table, task_table
+from legato_drake.experiment.runner import plan_runs
+from legato_drake.experiment.units import unit_key
+
+ROOT = Path(__file__).resolve().parents[1]
+SMOKE = ROOT / "configs" / "experiments" / "smoke.yaml"
+PAPER = ROOT / "configs" / "experiments" / "paper.yaml"
+
+
+def _cli(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "legato_drake.cli", *args],
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def _rows(path: Path) -> dict[str, dict]:
+    """trials.jsonl by key, without what differs between runs (wall time, and the
+    checkpoint's bytes, which record the dataset's file: its timings differ)."""
+    rows = {}
+    for line in path.read_text().splitlines():
+        row = json.loads(line)
+        for name in ("wall_time", "checkpoint_sha256"):
+            row.pop(name)
+        assert row["key"] not in rows, "a trial ran twice"
+        rows[row["key"]] = row
+    return rows
+
+
+def _grid(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "grid.yaml"
+    path.write_text(text)
+    return path
+
+
+# --- the grid file --------------------------------------------------------------------------
+
+def test_shipped_grids_load():
+    smoke, paper = load_grid(SMOKE), load_grid(PAPER)
+    assert smoke.evaluation.tasks == ["lid"] and len(smoke.methods) == 1
+    assert paper.evaluation.tasks == ["lid", "cup", "ladle"]
+    assert len(paper.evaluation.embodiments) == 5 and paper.evaluation.trials == 50
+    assert len(paper.training.seeds) >= 3
+    assert {"legato", "legato_se3", "bc_rnn", "dp_velocity", "dp_reltraj"} <= \
+        {m.name for m in paper.methods}
+
+
+GOOD = """
+datasets: [{task: lid, episodes: 4}]
+methods: [{name: a, config: legato_small_state.yaml}]
+"""
+
+
+@pytest.mark.parametrize("text, message", [
+    ("datasets: [{task: lid, episodes: 4, colour: red}]\nmethods: []",
+     "unknown field 'datasets[0].colour'"),
+    ("datasets: [{task: soup}]\nmethods: [{name: a, config: legato_small_state.yaml}]",
+     "datasets[0].task: unknown 'soup'; valid values: lid, cup, ladle"),
+    (GOOD + "training: {seeds: 0}", "training.seeds must be a list"),
+    (GOOD + "training: {threads: two}", "training.threads must be an integer"),
+    (GOOD + "training: {device: tpu}", "training.device: unknown 'tpu'; valid values: cpu"),
+    (GOOD + "evaluation: {tasks: [cup]}", "evaluation.tasks[0]: no dataset of task 'cup'"),
+    (GOOD + "evaluation: {embodiments: [r2d2]}", "evaluation.embodiments[0]: unknown 'r2d2'"),
+    (GOOD + "evaluation: {seed0: 2}", "evaluation seeds overlap the training seeds"),
+    (GOOD + "selection: {seed0: 10005}", "evaluation seeds overlap the selection seeds"),
+    ("datasets: [{task: lid}]\nmethods: [{name: a, config: nope.yaml}]",
+     "methods[0].config: no learning config 'nope.yaml'"),
+    ("datasets: [{task: lid}]\nmethods: [{name: a, config: legato_small_state.yaml, "
+     "overrides: [stepz=3]}]", "methods[0] (a):"),
+    ("datasets: [{task: lid}]\nmethods: [{name: a b, config: legato_small_state.yaml}]",
+     "methods[0].name 'a b'"),
+    ("datasets: [{task: lid}]\nmethods: [{name: a, config: legato_small_state.yaml}, "
+     "{name: a, config: bc_rnn_small_state.yaml}]", "expected a unique plain name"),
+    ("methods: [", "malformed grid file"),
+])
+def test_bad_grids_are_one_line_errors(tmp_path, text, message):
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        load_grid(_grid(tmp_path, text))
+
+
+def test_cli_bad_input_is_one_line(tmp_path):
+    result = _cli("experiment", str(SMOKE), "--out", str(tmp_path / "x"),
+                  "--methods", "legato,nope", timeout=120)
+    assert result.returncode == 2 and result.stdout == ""
+    assert result.stderr.strip().splitlines() == [
+        f"legato-drake: error: --methods: ['nope'] not in the grid {SMOKE}; it has: legato"]
+    assert not (tmp_path / "x").exists()
+    result = _cli("experiment", str(SMOKE), "--out", str(tmp_path / "y"),
+                  "--ray-address", "127.0.0.1:1", timeout=120)
+    assert result.returncode == 2
+    assert "--ray-address: only with --backend ray" in result.stderr
+
+
+def test_unit_keys_follow_their_inputs(tmp_path):
+    """Changing one method changes only that method's runs; the part of a grid has the
+    grid's own units."""
+    assert unit_key("a", {"x": 1, "y": 2}) == unit_key("a", {"y": 2, "x": 1})
+    assert unit_key("a", 1) != unit_key("a", 2)
+    two = GOOD.replace("methods: [{name: a, config: legato_small_state.yaml}]",
+                       "methods: [{name: a, config: legato_small_state.yaml}, "
+                       "{name: b, config: bc_rnn_small_state.yaml}]")
+    before = {(r.method.name, r.seed): r.key for r in plan_runs(
+        load_grid(_grid(tmp_path, two + "training: {seeds: [0, 1]}")), tmp_path)}
+    changed = two.replace("bc_rnn_small_state.yaml}", "bc_rnn_small_state.yaml, "
+                          "overrides: [lr=0.0005]}")
+    after = {(r.method.name, r.seed): r.key for r in plan_runs(
+        load_grid(_grid(tmp_path, changed + "training: {seeds: [0, 1]}")), tmp_path)}
+    assert len(set(before.values())) == 4
+    assert [k for k in before if before[k] != after[k]] == [("b", 0), ("b", 1)]
+    grid = load_grid(_grid(tmp_path, two + "training: {seeds: [0, 1]}"))
+    part = subset(grid, methods=["b"], seeds=[1])
+    assert [(r.method.name, r.seed, r.key) for r in plan_runs(part, tmp_path)] == \
+        [("b", 1, before["b", 1])]
+
+
+def test_tables_mean_range_and_pooled_interval():
+    rows = [dict(method="m", train_seed=s, embodiment=e, task="lid", success=ok)
+            for s, e, successes in [(0, "abstract", 4), (1, "abstract", 2),
+                                    (0, "panda", 3), (1, "panda", 1),
+                                    (0, "spot", 1), (1, "spot", 3)]
+            for ok in [True] * successes + [False] * (4 - successes)]
+    lines = task_table(rows, "lid", paper=False)
+    assert lines[0] == "| method (training seeds) | abstract | panda | spot | " \
+                       "cross-embodiment mean |"
+    # abstract: seeds 100 % and 50 %; pooled 6/8; cross: seed 0 (75+25)/2, seed 1 (25+75)/2
+    assert lines[2] == ("| m (0, 1) | 75 % (50-100); 6/8 [41-93] | 50 % (25-75); 4/8 [22-78] "
+                        "| 50 % (25-75); 4/8 [22-78] | 50 % (50-50) |")
+    assert overall_table(rows)[2] == "| m | 2 | 75 % (50-100) | 50 % (50-50) |"
+    assert len(task_table(rows, "lid")) == 3 + 4  # and the paper's four methods
+
+
+# --- the smoke grid, end to end -------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def local_run(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("experiment") / "local"
+    result = _cli("experiment", str(SMOKE), "--out", str(out), "--workers", "2")
+    assert result.returncode == 0, result.stderr
+    assert "| legato (0) |" in result.stdout  # the summary, on stdout
+    return out
+
+
+def test_local_backend_end_to_end(local_run):
+    grid = load_grid(SMOKE)
+    with open(local_run / "results.csv") as f:
+        results = list(csv.DictReader(f))
+    cells = len(grid.evaluation.embodiments) * grid.evaluation.trials
+    assert len(results) == cells
+    assert {r["embodiment"] for r in results} == set(grid.evaluation.embodiments)
+    assert {int(r["seed"]) for r in results} == {10000, 10001}
+    rows = _rows(local_run / "trials.jsonl")
+    (run,) = (local_run / "runs").iterdir()
+    selection = json.loads((run / "selection.json").read_text())
+    assert [c["name"] for c in selection["candidates"]] == ["step_000030.pt", "step_000060.pt"]
+    assert sum(r["phase"] == "select" for r in rows.values()) == 2
+    assert (run / "selected.pt").is_file() and (local_run / "summary.md").is_file()
+    assert (local_run / "figures" / "lid.png").stat().st_size > 1000
+    assert (local_run / "figures" / "cross_embodiment.png").is_file()
+
+    # A finished grid reruns nothing and changes no file.
+    before = {p: p.stat().st_mtime_ns for p in local_run.rglob("*")
+              if p.is_file() and p.name not in ("grid.json", "results.csv", "summary.md")
+              and p.suffix != ".png"}
+    result = _cli("experiment", str(SMOKE), "--out", str(local_run))
+    assert result.returncode == 0, result.stderr
+    assert "ran {'datasets': 0, 'trainings': 0, 'trials': 0}" in result.stderr
+    assert {p: p.stat().st_mtime_ns for p in before} == before
+
+
+def test_killed_driver_resumes_without_loss_or_repeats(local_run, tmp_path):
+    """Kill the driver once some trials are recorded, run again: the recorded trials stay
+    as they were, each trial is recorded once, the results equal an uninterrupted run."""
+    out = tmp_path / "killed"
+    shutil.copytree(local_run / "datasets", out / "datasets")  # skip collecting again
+    ledger = out / "trials.jsonl"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "legato_drake.cli", "experiment", str(SMOKE), "--out",
+         str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        start_new_session=True)
+    try:
+        deadline = time.monotonic() + 300
+        while not (ledger.is_file() and len(ledger.read_text().splitlines()) >= 2):
+            assert process.poll() is None, "the experiment ended before it could be killed"
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+    finally:
+        os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+    kept = ledger.read_text().splitlines()
+    assert 2 <= len(kept) < 6
+    result = _cli("experiment", str(SMOKE), "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    assert "'trainings': 0" in result.stderr.split("ran ")[-1]  # the run was done: kept
+    lines = ledger.read_text().splitlines()
+    assert lines[:len(kept)] == kept and len(lines) == 6
+    assert _rows(ledger) == _rows(local_run / "trials.jsonl")
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _ray(*args: str) -> subprocess.CompletedProcess:
+    ray = Path(sys.executable).with_name("ray")
+    env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
+    return subprocess.run([str(ray), *args], capture_output=True, text=True, timeout=180,
+                          env=env)
+
+
+def test_ray_backend_matches_local_and_survives_a_killed_worker(local_run, tmp_path):
+    """On a local Ray cluster (``ray start --head``): one worker is killed while it runs a
+    trial; the task is retried, the grid completes, and every trial's result equals the local
+    backend's."""
+    pytest.importorskip("ray")
+    port = _free_port()
+    started = _ray("start", "--head", "--node-ip-address", "127.0.0.1", "--port", str(port),
+                   "--num-cpus", "2", "--include-dashboard", "false",
+                   "--disable-usage-stats")
+    assert started.returncode == 0, started.stderr
+    out = tmp_path / "ray"
+    try:
+        process = subprocess.Popen(
+            [sys.executable, "-m", "legato_drake.cli", "experiment", str(SMOKE), "--out",
+             str(out), "--backend", "ray", "--ray-address", f"127.0.0.1:{port}"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        killed = None
+        deadline = time.monotonic() + 400
+        while killed is None and process.poll() is None and time.monotonic() < deadline:
+            trained = list(out.glob("runs/*/unit.json"))
+            workers = subprocess.run(["pgrep", "-f", "ray::run_unit"], capture_output=True,
+                                     text=True).stdout.split()
+            if trained and workers:  # the training is done: a running unit is a trial
+                killed = int(workers[0])
+                os.kill(killed, signal.SIGKILL)
+            time.sleep(0.05)
+        stdout, stderr = process.communicate(timeout=400)
+        assert killed is not None, f"no Ray worker ran a trial to kill: {stderr}"
+        assert process.returncode == 0, stderr
+        assert "| legato (0) |" in stdout
+    finally:
+        _ray("stop", "--force")
+    assert _rows(out / "trials.jsonl") == _rows(local_run / "trials.jsonl")
