@@ -321,7 +321,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     from legato_drake.experiment.runner import run_experiment
 
     grid = subset(load_grid(args.grid), _csv_list(args.methods), _csv_list(args.tasks),
-                  _csv_list(args.train_seeds, int))
+                  _csv_list(args.train_seeds, int), args.trials)
     check_output_dir(Path(args.out), "--out")
     executor = make_backend(args.backend, args.workers, args.ray_address)
     report = run_experiment(grid, args.out, executor)
@@ -669,6 +669,8 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--methods", help="only these methods of the grid (a,b)")
     experiment.add_argument("--tasks", help="only these tasks of the grid (a,b)")
     experiment.add_argument("--train-seeds", help="only these training seeds (0,1)")
+    experiment.add_argument("--trials", type=_int_at_least(1), default=None,
+                            help="only the first N evaluation scene seeds of the grid's")
     experiment.set_defaults(func=cmd_experiment)
     for sub in verbs.choices.values():  # -v also after the verb
         sub.add_argument("-v", "--verbose", action="store_true", default=argparse.SUPPRESS,

@@ -43,6 +43,7 @@ from legato_drake.models import add_package
 from legato_drake.robot_types import RobotHandles
 from legato_drake.scenario import Scenario
 from legato_drake.systems.episode_recorder import EpisodeRecorder
+from legato_drake.systems.external_controller import ExternalController
 from legato_drake.systems.gravity_compensation import GravityCompensation
 from legato_drake.systems.gripper_actuation import GripperActuation
 from legato_drake.systems.joint_target_mux import JointTargetMux
@@ -75,7 +76,7 @@ class LegatoDiagram:
     scene_graph: SceneGraph
     robot: RobotHandles
     task: Task
-    controller: ScriptedDemonstrator | PoseStreamReplay | PolicyController
+    controller: ScriptedDemonstrator | PoseStreamReplay | PolicyController | ExternalController
     integrator: GripperTargetIntegrator
     ik: WholeBodyIK
     gripper: GripperActuation
@@ -163,6 +164,8 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
             "policy_controller", _policy_controller(scenario, plant, robot))
         if controller.obs_mode == "state":
             builder.Connect(state, controller.get_plant_state_input_port())
+    elif scenario.controller == "external":
+        controller = builder.AddNamedSystem("external_controller", ExternalController())
     else:
         noise = scenario.expert_noise
         controller = builder.AddNamedSystem(

@@ -78,52 +78,104 @@ def simulate(built: LegatoDiagram) -> tuple[Simulator, EpisodeResult]:
     ``stop_on_success``), the controller is done, or the time limit; records the Meshcat
     replay if the diagram has a visualizer. Returns the simulator (its context holds the
     final state) and the result."""
-    scenario = built.scenario
-    simulator = Simulator(built.diagram)
-    initialize(built, simulator)
-    context = simulator.get_mutable_context()
-    t_end = conventions.HOMING_DURATION + scenario.duration
-    success_port = built.success.GetOutputPort("success")
-    done_port = built.controller.GetOutputPort("done")
-    done_since: list[float] = []
+    run = EpisodeRun(built)
+    run.advance_to(run.t_end)
+    return run.simulator, run.result()
 
-    def monitor(root_context) -> EventStatus:
-        if scenario.stop_on_success and success_port.Eval(
+
+class EpisodeRun:
+    """One episode in progress: the simulator of a built diagram from its scenario's seeded
+    initial state, advanced by the caller (``advance_to``) until it ends: success (with
+    ``stop_on_success``), the controller done for ``DONE_GRACE`` seconds, or the time limit
+    ``t_end`` (homing plus the scenario's duration). ``simulate`` runs one to its end in one
+    call; a Gymnasium environment (``legato_drake.envs``) advances it one policy step at a
+    time. Either way ``result()`` is the episode's verdict, from the same code."""
+
+    def __init__(self, built: LegatoDiagram):
+        self.built = built
+        scenario = built.scenario
+        self.simulator = Simulator(built.diagram)
+        initialize(built, self.simulator)
+        self.t_end = conventions.HOMING_DURATION + scenario.duration
+        self.stopped = ""
+        """Why the episode stopped before ``t_end`` ("success", "controller done"), or
+        empty."""
+        self._success_port = built.success.GetOutputPort("success")
+        self._done_port = built.controller.GetOutputPort("done")
+        self._done_since: list[float] = []
+        self._result: EpisodeResult | None = None
+        self.simulator.set_monitor(self._monitor)
+        if built.visualizer is not None:
+            built.visualizer.StartRecording(False)
+        start = time.perf_counter()
+        self.simulator.Initialize()
+        self.wall_time = time.perf_counter() - start
+
+    @property
+    def context(self):
+        """The diagram's context (the episode's state now)."""
+        return self.simulator.get_context()
+
+    @property
+    def time(self) -> float:
+        """Simulated seconds so far, homing included."""
+        return self.context.get_time()
+
+    @property
+    def ended(self) -> bool:
+        """Whether the episode is over (stopped early, or at its time limit)."""
+        return bool(self.stopped) or self.time >= self.t_end - 1e-9
+
+    def success_now(self) -> bool:
+        """Whether the task's success predicate holds now."""
+        success = self.built.success
+        return self._success_port.Eval(success.GetMyContextFromRoot(self.context))[0] > 0.5
+
+    def _monitor(self, root_context) -> EventStatus:
+        built, scenario = self.built, self.built.scenario
+        if scenario.stop_on_success and self._success_port.Eval(
                 built.success.GetMyContextFromRoot(root_context))[0] > 0.5:
+            self.stopped = "success"
             return EventStatus.ReachedTermination(built.diagram, "success")
-        if done_port.Eval(built.controller.GetMyContextFromRoot(root_context))[0] > 0.5:
-            if not done_since:
-                done_since.append(root_context.get_time())
-            elif root_context.get_time() - done_since[0] >= DONE_GRACE:
+        if self._done_port.Eval(built.controller.GetMyContextFromRoot(root_context))[0] > 0.5:
+            if not self._done_since:
+                self._done_since.append(root_context.get_time())
+            elif root_context.get_time() - self._done_since[0] >= DONE_GRACE:
+                self.stopped = "controller done"
                 return EventStatus.ReachedTermination(built.diagram, "controller done")
         return EventStatus.Succeeded()
 
-    simulator.set_monitor(monitor)
-    if built.visualizer is not None:
-        built.visualizer.StartRecording(False)
-    start = time.perf_counter()
-    simulator.Initialize()
-    simulator.AdvanceTo(t_end)
-    wall = time.perf_counter() - start
-    if built.visualizer is not None:
-        built.visualizer.StopRecording()
-        built.visualizer.PublishRecording()
+    def advance_to(self, t: float) -> None:
+        """Simulates until ``t`` (at most ``t_end``), or until the episode stops."""
+        if self.ended:
+            return
+        start = time.perf_counter()
+        self.simulator.AdvanceTo(min(t, self.t_end))
+        self.wall_time += time.perf_counter() - start
 
-    success_context = built.success.GetMyContextFromRoot(context)
-    report = built.success.evaluate(success_context)
-    first = built.success.GetOutputPort("first_success_time").Eval(success_context)[0]
-    if scenario.stop_on_success and not np.isnan(first) and not report.success:
-        # Stopped on the monitor's latched verdict; the state is a physics step later, where
-        # a borderline condition (the object's speed) may read differently. The verdict counts.
-        report = dataclasses.replace(report, success=True, reason="")
-    stats = TrackingStats.from_vector(built.tracking.GetOutputPort("stats").Eval(
-        built.tracking.GetMyContextFromRoot(context)))
-    sim_time = context.get_time()
-    result = EpisodeResult(
-        embodiment=scenario.embodiment, task=scenario.task, controller=scenario.controller,
-        seed=scenario.seed, success=report.success, reason=report.reason,
-        success_time=None if np.isnan(first) else float(first - conventions.HOMING_DURATION),
-        episode_time=max(sim_time - conventions.HOMING_DURATION, 0.0), sim_time=sim_time,
-        wall_time=wall, real_time_factor=sim_time / wall if wall > 0 else float("inf"),
-        tracking=stats, metrics=report.metrics)
-    return simulator, result
+    def result(self) -> EpisodeResult:
+        """The episode's result as it stands (publishes the Meshcat recording, once)."""
+        built, scenario, context = self.built, self.built.scenario, self.context
+        if built.visualizer is not None and self._result is None:
+            built.visualizer.StopRecording()
+            built.visualizer.PublishRecording()
+        success_context = built.success.GetMyContextFromRoot(context)
+        report = built.success.evaluate(success_context)
+        first = built.success.GetOutputPort("first_success_time").Eval(success_context)[0]
+        if scenario.stop_on_success and not np.isnan(first) and not report.success:
+            # Stopped on the monitor's latched verdict; the state is a physics step later,
+            # where a borderline condition (the object's speed) may read differently. The
+            # verdict counts.
+            report = dataclasses.replace(report, success=True, reason="")
+        stats = TrackingStats.from_vector(built.tracking.GetOutputPort("stats").Eval(
+            built.tracking.GetMyContextFromRoot(context)))
+        sim_time, wall = context.get_time(), self.wall_time
+        self._result = EpisodeResult(
+            embodiment=scenario.embodiment, task=scenario.task, controller=scenario.controller,
+            seed=scenario.seed, success=report.success, reason=report.reason,
+            success_time=None if np.isnan(first)
+            else float(first - conventions.HOMING_DURATION),
+            episode_time=max(sim_time - conventions.HOMING_DURATION, 0.0), sim_time=sim_time,
+            wall_time=wall, real_time_factor=sim_time / wall if wall > 0 else float("inf"),
+            tracking=stats, metrics=report.metrics)
+        return self._result

@@ -36,6 +36,7 @@ Three ways to run jobs, all on ``stream``:
 from __future__ import annotations
 
 import concurrent.futures as cf
+import dataclasses
 import hashlib
 import logging
 import multiprocessing
@@ -171,6 +172,9 @@ class RayExecutor(Executor):
             raise ConfigError("--backend ray: Ray is not installed (pip install "
                               "'legato-drake[ray]')") from None
         os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # no network calls
+        if address is None or address.split(":")[0] in ("127.0.0.1", "localhost"):
+            # A cluster on this machine: keep every Ray socket on the loopback interface.
+            os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
         if not ray.is_initialized():
             options = dict(log_to_driver=False, logging_level=logging.WARNING,
                            include_dashboard=False, configure_logging=True)
@@ -181,11 +185,29 @@ class RayExecutor(Executor):
                     ray.init(address=address, **options)
             except (ConnectionError, RuntimeError, ValueError) as e:
                 raise ConfigError(f"--ray-address {address}: cannot connect to a Ray "
-                                  f"cluster: {e}") from None
+                                  f"cluster ({e}); a cluster with token authentication "
+                                  "needs RAY_AUTH_MODE=token here too") from None
         self._ray = ray
+        self._refs: dict[str, object] = {}  # Blob hash -> its bytes in the object store
         self.max_retries = max_retries
         cpus = int(ray.cluster_resources().get("CPU", 1))
         self.workers = workers or max(cpus, 1)
+
+    def _shared(self, job: Job) -> Job:
+        """``job`` with each of its ``Blob`` fields put into Ray's object store once (by
+        hash) and passed by reference, so a checkpoint that a thousand trials need travels
+        once per node, not once per trial."""
+        if not dataclasses.is_dataclass(job):
+            return job
+        changes = {}
+        for f in dataclasses.fields(job):
+            value = getattr(job, f.name)
+            if isinstance(value, Blob):
+                if value.sha256 not in self._refs:
+                    self._refs[value.sha256] = self._ray.put(value.data)
+                changes[f.name] = SharedBlob(value.name, value.sha256,
+                                             self._refs[value.sha256])
+        return dataclasses.replace(job, **changes) if changes else job
 
     @property
     def gpus(self) -> int:
@@ -203,7 +225,7 @@ class RayExecutor(Executor):
                 while len(in_flight) < self.workers and \
                         (job := next_job(len(in_flight))) is not None:
                     resources = dict(getattr(job, "resources", None) or {"num_cpus": 1})
-                    in_flight.append(remote.options(**resources).remote(job))
+                    in_flight.append(remote.options(**resources).remote(self._shared(job)))
                 if not in_flight:
                     completed = True
                     return
@@ -238,6 +260,24 @@ class Blob:
         target = Path(tempfile.gettempdir()) / "legato_drake_blobs" / self.sha256 / self.name
         if not target.is_file():
             atomic_write_bytes(target, self.data)
+        return target
+
+
+@dataclass(frozen=True, eq=False)
+class SharedBlob:
+    """A ``Blob`` whose bytes are in Ray's object store (``RayExecutor`` passes these)."""
+
+    name: str
+    sha256: str
+    ref: object
+
+    def path(self) -> Path:
+        """The file on this machine (fetched from the object store on first use)."""
+        target = Path(tempfile.gettempdir()) / "legato_drake_blobs" / self.sha256 / self.name
+        if not target.is_file():
+            import ray
+
+            atomic_write_bytes(target, ray.get(self.ref))
         return target
 
 

@@ -27,7 +27,7 @@ from legato_drake.data.pose_stream import check_pose_stream_file
 from legato_drake.errors import ConfigError, unknown_name, yaml_problem
 from legato_drake.files import read_text_file
 
-CONTROLLERS = ("scripted", "replay", "policy")
+CONTROLLERS = ("scripted", "replay", "policy", "external")
 """Names accepted by ``Scenario.controller``."""
 
 
@@ -91,8 +91,10 @@ class Scenario:
     task: str = "lid"
     """Registered task name (``legato_drake.tasks.TASKS``)."""
     controller: str = "scripted"
-    """What produces the 10 Hz actions: ``scripted`` (the task's scripted demonstrator) or
-    ``replay`` (a recorded pose stream, ``pose_stream``)."""
+    """What produces the 10 Hz actions: ``scripted`` (the task's scripted demonstrator),
+    ``replay`` (a recorded pose stream, ``pose_stream``), ``policy`` (a trained
+    ``checkpoint``) or ``external`` (set from outside the diagram at each step, e.g. by the
+    Gymnasium environments of ``legato_drake.envs``)."""
     pose_stream: str = ""
     """Recorded 6-DoF gripper pose stream (CSV or NPZ, docs/data_format.md) that
     ``controller: replay`` plays; required by it."""

@@ -1,6 +1,6 @@
 """Copies a selected checkpoint into ``checkpoints/`` as a deployable policy.
 
-    python scripts/ship_checkpoint.py study/lid/runs/legato_seed0/selected.pt \\
+    python scripts/ship_checkpoint.py experiments/paper/runs/legato-lid-seed0-*/selected.pt \\
         checkpoints/legato_state_lid.pt
 
 The copy keeps the model, its config, the normalisation statistics, the training and

@@ -5,15 +5,19 @@ from __future__ import annotations
 
 import math
 import os
+import pickle
 import time
 from dataclasses import dataclass
 
 import pytest
 
+from legato_drake.errors import ConfigError
 from legato_drake.executor import (
+    Blob,
     Executor,
     ProcessExecutor,
     SerialExecutor,
+    make_backend,
     make_executor,
     run_jobs,
 )
@@ -94,3 +98,30 @@ def test_stopping_early_terminates_the_jobs_in_flight():
     assert next(results)[0] == 1
     results.close()  # what an error or Ctrl-C in the caller does
     assert time.monotonic() - start < 30.0
+
+
+def test_make_backend_checks_its_flags():
+    assert isinstance(make_backend("local"), SerialExecutor)
+    assert make_backend("local", 2).workers == 2
+    with pytest.raises(ConfigError, match="--backend: unknown 'slurm'; valid values: local, ray"):
+        make_backend("slurm")
+    with pytest.raises(ConfigError, match="--workers must be an integer >= 1, got 0"):
+        make_backend("local", 0)
+    with pytest.raises(ConfigError, match="--ray-address: only with --backend ray"):
+        make_backend("local", 1, "127.0.0.1:6379")
+
+
+def read_blob(blob: Blob) -> bytes:
+    """In a worker: the bytes of the file the blob puts there."""
+    return blob.path().read_bytes()
+
+
+def test_a_blob_travels_with_its_job(tmp_path):
+    """A worker that shares no files gets the blob's file, written once under its hash."""
+    source = tmp_path / "policy.pt"
+    source.write_bytes(b"weights" * 1000)
+    blob = pickle.loads(pickle.dumps(Blob.of(source)))
+    assert blob.path().name == "policy.pt" and blob.sha256 in str(blob.path())
+    source.unlink()
+    blob.path().unlink()  # the workers write it again from the bytes they were sent
+    assert list(ProcessExecutor(2).map(read_blob, [blob, blob])) == [b"weights" * 1000] * 2

@@ -222,11 +222,15 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+RAY_ENV = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0", "RAY_AUTH_MODE": "token",
+           "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}
+"""A Ray cluster on the loopback interface only, with token authentication."""
+
+
 def _ray(*args: str) -> subprocess.CompletedProcess:
     ray = Path(sys.executable).with_name("ray")
-    env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
     return subprocess.run([str(ray), *args], capture_output=True, text=True, timeout=180,
-                          env=env)
+                          env=RAY_ENV)
 
 
 def test_ray_backend_matches_local_and_survives_a_killed_worker(local_run, tmp_path):
@@ -235,16 +239,15 @@ def test_ray_backend_matches_local_and_survives_a_killed_worker(local_run, tmp_p
     backend's."""
     pytest.importorskip("ray")
     port = _free_port()
-    started = _ray("start", "--head", "--node-ip-address", "127.0.0.1", "--port", str(port),
-                   "--num-cpus", "2", "--include-dashboard", "false",
-                   "--disable-usage-stats")
+    started = _ray("start", "--head", "--port", str(port), "--num-cpus", "2",
+                   "--include-dashboard", "false", "--disable-usage-stats")
     assert started.returncode == 0, started.stderr
     out = tmp_path / "ray"
     try:
         process = subprocess.Popen(
             [sys.executable, "-m", "legato_drake.cli", "experiment", str(SMOKE), "--out",
              str(out), "--backend", "ray", "--ray-address", f"127.0.0.1:{port}"],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=RAY_ENV)
         killed = None
         deadline = time.monotonic() + 400
         while killed is None and process.poll() is None and time.monotonic() < deadline:

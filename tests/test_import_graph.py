@@ -25,8 +25,11 @@ POLICY_SIDE = ("legato_drake.data", "legato_drake.learning", "legato_drake.invar
 """Modules (and packages: everything under them) that must not know the robot."""
 ROBOT_SIDE = ("legato_drake.embodiments", "legato_drake.systems", "legato_drake.tasks",
               "legato_drake.diagram", "legato_drake.episode", "legato_drake.scenario",
-              "legato_drake.pipelines", "legato_drake.executor")
+              "legato_drake.pipelines", "legato_drake.executor", "legato_drake.experiment")
 """What the policy side must not import (packages: everything under them too)."""
+TOP = (("legato_drake.experiment", ("legato_drake.cli",)),)
+"""Layers that only the named modules may import (the experiment sits above the pipelines:
+nothing below it knows it)."""
 CORE = ("legato_drake.conventions", "legato_drake.dimensions", "legato_drake.robot_types",
         "legato_drake.leg_kinematics", "legato_drake.poses", "legato_drake.summary",
         "legato_drake.files", "legato_drake.errors", "legato_drake.progress",
@@ -163,10 +166,13 @@ def forbidden_edges(graph: dict[str, dict[str, int]], root: Path = ROOT) -> list
 
 
 def layer_violations(graph: dict[str, dict[str, int]]) -> list[str]:
-    """``module -> target`` for every core module importing above the core, and every edge
-    between two packages kept apart."""
+    """``module -> target`` for every core module importing above the core, every import of
+    a top layer from below it, and every edge between two packages kept apart."""
     found = [f"{m} -> {t}" for m, edges in sorted(graph.items()) if _within(m, CORE)
              for t in sorted(edges) if t != PACKAGE and not _within(t, CORE)]
+    for top, users in TOP:
+        found += [f"{m} -> {t}" for m, edges in sorted(graph.items()) for t in sorted(edges)
+                  if _within(t, (top,)) and not _within(m, (top, *users))]
     for a, b in APART:
         found += [f"{m} -> {t}" for m, edges in sorted(graph.items())
                   for t in sorted(edges)
@@ -211,7 +217,10 @@ def test_the_checker_sees_lazy_relative_and_indirect_imports(tmp_path):
              "episode.py": "from .data import a\n",
              "helper.py": "from legato_drake.tasks import lid\n",
              "data/b.py": "import legato_drake.helper\n",
-             "conventions.py": "from legato_drake.tasks import lid\n"}
+             "conventions.py": "from legato_drake.tasks import lid\n",
+             "experiment/__init__.py": "", "experiment/runner.py": "",
+             "cli.py": "from legato_drake.experiment import runner\n",
+             "pipelines.py": "import legato_drake.experiment.runner\n"}
     for name, text in files.items():
         (tmp_path / PACKAGE / name).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / PACKAGE / name).write_text(text)
@@ -227,7 +236,10 @@ def test_the_checker_sees_lazy_relative_and_indirect_imports(tmp_path):
     assert forbidden_paths(graph) == [
         "legato_drake.data.b -> legato_drake.helper -> legato_drake.tasks"]
     assert layer_violations(graph) == ["legato_drake.conventions -> legato_drake.tasks",
-                                       "legato_drake.conventions -> legato_drake.tasks.lid"]
+                                       "legato_drake.conventions -> legato_drake.tasks.lid",
+                                       "legato_drake.pipelines -> legato_drake.experiment",
+                                       "legato_drake.pipelines -> "
+                                       "legato_drake.experiment.runner"]
 
 
 def test_the_package_has_no_import_cycles():

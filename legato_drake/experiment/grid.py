@@ -260,10 +260,14 @@ def grid_dict(grid: Grid) -> dict:
 
 
 def subset(grid: Grid, methods: list[str] | None = None, tasks: list[str] | None = None,
-           seeds: list[int] | None = None) -> Grid:
-    """The part of ``grid`` with only these methods, evaluated tasks and training seeds
-    (``--methods``, ``--tasks``, ``--train-seeds``; None: all). Its units are the grid's
-    own, so running the part first and the whole later reuses them."""
+           seeds: list[int] | None = None, trials: int | None = None) -> Grid:
+    """The part of ``grid`` with only these methods, evaluated tasks and training seeds, and
+    the first ``trials`` evaluation scene seeds (``--methods``, ``--tasks``,
+    ``--train-seeds``, ``--trials``; None: all). Its units are the grid's own, so running
+    the part first and the whole later reuses them."""
+    if trials is not None and not 1 <= trials <= grid.evaluation.trials:
+        raise ConfigError(f"--trials must be between 1 and the grid's evaluation.trials "
+                          f"({grid.evaluation.trials}), got {trials}")
     for flag, chosen, present in (
             ("--methods", methods, [m.name for m in grid.methods]),
             ("--tasks", tasks, grid.evaluation.tasks),
@@ -282,4 +286,6 @@ def subset(grid: Grid, methods: list[str] | None = None, tasks: list[str] | None
     if seeds:
         part.training = dataclasses.replace(
             grid.training, seeds=[s for s in grid.training.seeds if s in seeds])
+    if trials:
+        part.evaluation = dataclasses.replace(part.evaluation, trials=trials)
     return part

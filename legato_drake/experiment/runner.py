@@ -153,9 +153,12 @@ class _Scheduler:
         self.grid, self.out, self.runs, self.device = grid, out, runs, device
         self.ledger = TrialLedger(out / "trials.jsonl")
         self.ready: deque = deque()
+        self.datasets: dict[Path, Blob] = {}
         self.by_key: dict[str, tuple[RunPlan, dict | None]] = {}
         """Units handed out or queued: their run, and a trial's row fields (None: the
         training)."""
+        self.eval_keys: list[str] = []
+        """The keys of the grid's evaluation trials (known once each run is selected)."""
         self.ran = {"trainings": 0, "trials": 0}
         self.skipped = {"trainings": 0, "trials": 0}
         self.bar = None
@@ -167,7 +170,9 @@ class _Scheduler:
                 self.skipped["trainings"] += 1
                 self._after_training(run)
             else:
-                unit = TrainUnit(run.key, run.config.to_dict(), Blob.of(run.data),
+                if run.data not in self.datasets:
+                    self.datasets[run.data] = Blob.of(run.data)  # one copy for all its runs
+                unit = TrainUnit(run.key, run.config.to_dict(), self.datasets[run.data],
                                  self.grid.training.threads, self.device)
                 self.by_key[run.key] = (run, None)
                 self.ready.appendleft(unit)  # trainings first: the longest units
@@ -268,6 +273,7 @@ class _Scheduler:
                 seed = evaluation.seed0 + i
                 key = unit_key("trial", run.key, dataclasses.asdict(selection), embodiment,
                                run.task, seed, evaluation.duration)
+                self.eval_keys.append(key)
                 if key in self.ledger:
                     self.skipped["trials"] += 1
                     continue
@@ -321,7 +327,7 @@ def run_experiment(grid: Grid, out: str | Path, executor: Executor,
     for key, result in executor.stream(run_unit, scheduler.next_job):
         scheduler.record(key, result)
     scheduler.bar.close()
-    results = evaluation_rows(scheduler.ledger.rows.values(), runs)
+    results = evaluation_rows(scheduler.ledger.rows, scheduler.eval_keys, runs)
     write_results_csv(out / "results.csv", results)
     write_report(grid, results, out)
     ran = {"datasets": collected, **scheduler.ran}
@@ -330,11 +336,12 @@ def run_experiment(grid: Grid, out: str | Path, executor: Executor,
     return ExperimentReport(out, ran, skipped, results)
 
 
-def evaluation_rows(rows: Iterable[dict], runs: list[RunPlan]) -> list[dict]:
-    """The evaluation trials of the grid's runs (not of runs the grid no longer has), in
-    method, training seed, embodiment, task and seed order."""
+def evaluation_rows(rows: dict[str, dict], keys: Iterable[str],
+                    runs: list[RunPlan]) -> list[dict]:
+    """The recorded evaluation trials among ``keys`` (the grid's: not those of units the grid
+    no longer has), in method, training seed, embodiment, task and seed order."""
     order = {run.folder.name: i for i, run in enumerate(runs)}
-    chosen = [r for r in rows if r["phase"] == "eval" and r["run"] in order]
+    chosen = [rows[k] for k in keys if k in rows]
     return sorted(chosen, key=lambda r: (order[r["run"]], *trial_order(r)))
 
 

@@ -5,7 +5,8 @@ dataset's spec; a training run's dataset and resolved learning config; a trial's
 selection, embodiment, task, scene seed and duration). Finished units are recorded under
 their key, so a rerun skips them, and changing one input reruns only what depends on it.
 
-Jobs carry the files they need (``Blob``: a dataset, a checkpoint) and return what they made
+Jobs carry the files they need (``Blob``: a dataset, a checkpoint; the Ray backend passes
+them by reference into its object store, ``SharedBlob``) and return what they made
 (a training run's files as bytes, a trial's row), so a worker may be a process here or a Ray
 task on a node that shares no files; the driver alone writes the experiment folder.
 """
@@ -19,7 +20,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from legato_drake.executor import Blob
+from legato_drake.executor import Blob, SharedBlob
 from legato_drake.pipelines.evaluate import TrialJob, run_trial
 
 
@@ -36,7 +37,7 @@ class TrainUnit:
 
     key: str
     config: dict
-    data: Blob
+    data: Blob | SharedBlob
     threads: int = 1
     device: str = "cpu"
 
@@ -53,7 +54,7 @@ class TrialUnit:
 
     key: str
     trial: TrialJob
-    checkpoint: Blob
+    checkpoint: Blob | SharedBlob
 
     @property
     def resources(self) -> dict:
