@@ -331,6 +331,29 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_export(args: argparse.Namespace) -> int:
+    """Writes a dataset in another framework's layout (LeRobot v3.0, or robomimic's image
+    path) and reads it back."""
+    data = Path(args.data)
+    if not data.is_file():
+        raise ConfigError(f"DATA {data}: dataset file not found")
+    if args.format == "lerobot":
+        from legato_drake.data.export_lerobot import export_lerobot
+
+        check_output_dir(Path(args.out), "--out")
+        info = export_lerobot(data, args.out, overwrite=args.overwrite)
+        log.info("wrote %s: LeRobot %s, %d episodes, %d frames, features %s", args.out,
+                 info["codebase_version"], info["total_episodes"], info["total_frames"],
+                 ", ".join(info["features"]))
+    else:
+        from legato_drake.data.export_robomimic import export_robomimic
+
+        check_output_file(Path(args.out), "--out")
+        keys = export_robomimic(data, args.out, overwrite=args.overwrite)
+        log.info("wrote %s (3-channel images: %s)", args.out, ", ".join(keys) or "none")
+    return 0
+
+
 def _trial_seeds(args: argparse.Namespace) -> tuple[int, int]:
     """evaluate's (seed0, trials) from ``--seeds A-B`` (demo's spelling) or ``--seed0`` and
     ``--trials`` (defaults 10000 and 50)."""
@@ -649,6 +672,19 @@ def build_parser() -> argparse.ArgumentParser:
                                "of another checkpoint, --duration, --seed0 or trial set is "
                                "refused")
     evaluate.set_defaults(func=cmd_evaluate)
+    export = verbs.add_parser(
+        "export", help="a dataset in LeRobot's v3.0 layout, or for robomimic's image path",
+        description="--format lerobot writes OUT/ in the LeRobot v3.0 layout (parquet frames, "
+                    "one H.264 video per camera, meta/info.json, stats, tasks, episodes); "
+                    "--format robomimic writes the HDF5 file OUT with 3-channel copies of "
+                    "the images (obs/left_rgb, obs/right_rgb).")
+    export.add_argument("data", help="dataset, e.g. data/lid.hdf5")
+    export.add_argument("--format", required=True, choices=("lerobot", "robomimic"))
+    export.add_argument("--out", required=True, help="folder (lerobot) or file (robomimic)")
+    export.add_argument("--overwrite", action="store_true",
+                        help="replace what OUT already holds")
+    export.set_defaults(func=cmd_export)
+
     experiment = verbs.add_parser(
         "experiment", help="a whole study from a grid file: collect, train, select, evaluate",
         description="Runs every unit of GRID (configs/experiments/*.yaml) not yet done in "

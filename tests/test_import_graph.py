@@ -25,11 +25,12 @@ POLICY_SIDE = ("legato_drake.data", "legato_drake.learning", "legato_drake.invar
 """Modules (and packages: everything under them) that must not know the robot."""
 ROBOT_SIDE = ("legato_drake.embodiments", "legato_drake.systems", "legato_drake.tasks",
               "legato_drake.diagram", "legato_drake.episode", "legato_drake.scenario",
-              "legato_drake.pipelines", "legato_drake.executor", "legato_drake.experiment")
+              "legato_drake.pipelines", "legato_drake.executor", "legato_drake.experiment",
+              "legato_drake.envs")
 """What the policy side must not import (packages: everything under them too)."""
-TOP = (("legato_drake.experiment", ("legato_drake.cli",)),)
-"""Layers that only the named modules may import (the experiment sits above the pipelines:
-nothing below it knows it)."""
+TOP = (("legato_drake.experiment", ("legato_drake.cli",)), ("legato_drake.envs", ()))
+"""Layers that only the named modules may import (the experiment and the Gymnasium
+environments sit above the pipelines and the episode: nothing below them knows them)."""
 CORE = ("legato_drake.conventions", "legato_drake.dimensions", "legato_drake.robot_types",
         "legato_drake.leg_kinematics", "legato_drake.poses", "legato_drake.summary",
         "legato_drake.files", "legato_drake.errors", "legato_drake.progress",

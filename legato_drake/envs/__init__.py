@@ -1,7 +1,7 @@
 """Gymnasium environments: every task on every robot, for policies of any framework.
 
-``import legato_drake.envs`` (or any ``gym.make("LegatoDrake/...")``: the package registers
-them through Gymnasium's plugin entry point) registers
+``import legato_drake.envs`` (or ``gym.make("legato_drake.envs:LegatoDrake/Lid-Panda-v0")``,
+which imports it first) registers
 
 - ``LegatoDrake/<Task>-<Robot>-v0`` for Task in Lid, Cup, Ladle and Robot in Abstract, Panda,
   Spot, Google, GR1;

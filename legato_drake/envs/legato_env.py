@@ -69,9 +69,10 @@ class LegatoEnv(gym.Env):
         self._objects = object_bodies(self.built.plant, self.built.robot)
         camera = scenario.camera
         image = spaces.Box(0, 255, (camera.height, camera.width, 1), np.uint8)
-        deltas = spaces.Box(-np.inf, np.inf, (3 * HISTORY,), np.float32)
-        observation = {"left_gray": image, "right_gray": image, "delta_positions": deltas,
-                       "delta_eulers": deltas}
+        deltas = {name: spaces.Box(-bound, bound, (3 * HISTORY,), np.float32)
+                  for name, bound in (("delta_positions", MAX_TRANSLATION),
+                                      ("delta_eulers", MAX_ROTATION))}
+        observation = {"left_gray": image, "right_gray": image, **deltas}
         if privileged:
             observation["tcp_commanded"] = spaces.Box(-np.inf, np.inf, (7,), np.float32)
             observation["object"] = spaces.Box(-np.inf, np.inf, (7 * len(self._objects),),
@@ -106,10 +107,11 @@ class LegatoEnv(gym.Env):
         return self._observation(), self._info(False)
 
     def step(self, action: np.ndarray) -> tuple[dict, float, bool, bool, dict]:
-        """Executes ``action`` for one policy step (0.1 s)."""
+        """Executes ``action`` (clipped to the action space) for one policy step (0.1 s)."""
         if self.run is None:
             raise RuntimeError("call reset() before step()")
-        action = np.asarray(action, dtype=float).reshape(7)
+        space = self.action_space
+        action = np.clip(np.asarray(action, dtype=float).reshape(7), space.low, space.high)
         controller = self.built.controller
         controller.set_action(controller.GetMyMutableContextFromRoot(
             self.run.simulator.get_mutable_context()), action)
@@ -117,8 +119,8 @@ class LegatoEnv(gym.Env):
         self.run.advance_to(conventions.HOMING_DURATION + OBSERVE_OFFSET +
                             self._steps * conventions.POLICY_PERIOD)
         self._history = np.concatenate([self._history[1:], action[None, :6]])
-        success = self.run.stopped == "success" or self.run.success_now()
-        truncated = not success and self.run.ended
+        success = bool(self.run.stopped == "success" or self.run.success_now())
+        truncated = bool(not success and self.run.ended)
         return (self._observation(), float(success), success, truncated,
                 self._info(success))
 
