@@ -175,6 +175,10 @@ class RayExecutor(Executor):
         if address is None or address.split(":")[0] in ("127.0.0.1", "localhost"):
             # A cluster on this machine: keep every Ray socket on the loopback interface.
             os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+        if address is None:
+            # Ray lowers its workers' priority (nice 15) by default; on a machine shared
+            # with other work that starves the trials, which are the work here.
+            os.environ.setdefault("RAY_worker_niceness", "0")
         if not ray.is_initialized():
             options = dict(log_to_driver=False, logging_level=logging.WARNING,
                            include_dashboard=False, configure_logging=True)

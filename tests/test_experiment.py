@@ -223,8 +223,9 @@ def _free_port() -> int:
 
 
 RAY_ENV = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0", "RAY_AUTH_MODE": "token",
-           "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}
-"""A Ray cluster on the loopback interface only, with token authentication."""
+           "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0", "RAY_worker_niceness": "0"}
+"""A Ray cluster on the loopback interface only, with token authentication, whose workers
+run at the tests' priority (Ray's default nice 15 starves them beside the other tests)."""
 
 
 def _ray(*args: str) -> subprocess.CompletedProcess:
