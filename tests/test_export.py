@@ -101,3 +101,34 @@ def test_robomimic_copy_has_three_channel_images(dataset, tmp_path):
 
     with pytest.raises(ConfigError, match="exists"):
         export_robomimic(dataset, out)
+
+
+def test_robomimic_sequence_dataset_reads_the_copy(dataset, tmp_path):
+    """robomimic's own loader on the copy: its image path (3-channel RGB processing) and the
+    low-dim keys, unchanged. Runs where robomimic is importable beside this torch (here:
+    ``pip install --no-deps robomimic termcolor``; its full install would replace torch)."""
+    pytest.importorskip("robomimic")
+    import robomimic.utils.obs_utils as obs_utils
+    from robomimic.utils.dataset import SequenceDataset
+
+    from legato_drake.data.export_robomimic import export_robomimic
+
+    out = tmp_path / "robomimic.hdf5"
+    export_robomimic(dataset, out)
+    obs_utils.initialize_obs_utils_with_obs_specs({"obs": {
+        "low_dim": ["delta_positions", "delta_eulers"], "rgb": ["left_rgb", "right_rgb"]}})
+    loader = SequenceDataset(str(out), obs_keys=("delta_positions", "delta_eulers",
+                                                 "left_rgb", "right_rgb"),
+                             dataset_keys=("actions",), seq_length=5, hdf5_cache_mode=None,
+                             filter_by_attribute=None, load_next_obs=False)
+    item = loader[0]
+    with h5py.File(out) as f:
+        images = f["data/demo_0/obs/left_rgb"][0:5]
+        actions = f["data/demo_0/actions"][0:5]
+    np.testing.assert_array_equal(item["obs"]["left_rgb"], images)
+    np.testing.assert_allclose(item["actions"], actions, atol=1e-6)
+    # robomimic's RGB processor (which asserted 3 channels on our gray images): CHW in [0, 1]
+    processed = obs_utils.process_obs_dict(item["obs"])
+    assert processed["left_rgb"].shape == (5, 3, 128, 128)
+    np.testing.assert_allclose(processed["left_rgb"][0], images[0].transpose(2, 0, 1) / 255.0,
+                               atol=1e-6)

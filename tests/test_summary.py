@@ -23,6 +23,12 @@ def test_wilson_interval():
     assert low == pytest.approx(0.2366, abs=1e-4) and high == pytest.approx(0.7634, abs=1e-4)
     assert wilson_interval(0, 10)[0] == 0.0 and wilson_interval(10, 10)[1] == 1.0
     assert wilson_interval(0, 0) == (0.0, 1.0)
+    # Exactly 0 and 1 at the ends for every n (6/6 once gave 0.9999999999999999, and the
+    # plots' error bars, rate - bound, went negative).
+    assert all(wilson_interval(n, n)[1] == 1.0 and wilson_interval(0, n)[0] == 0.0
+               for n in range(1, 301))
+    assert all(lo <= k / n <= hi for n in range(1, 60) for k in range(n + 1)
+               for lo, hi in [wilson_interval(k, n)])
 
 
 def test_rates_and_groups():

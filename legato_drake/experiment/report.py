@@ -128,8 +128,8 @@ def plot_cross_embodiment(rows: Sequence[dict], png: Path, title: str = "") -> P
             per_seed = [sum(v) / len(v) for v in per_seed if v]
             mean = sum(per_seed) / len(per_seed) if per_seed else 0.0
             means.append(mean)
-            lows.append(mean - min(per_seed) if per_seed else 0.0)
-            highs.append(max(per_seed) - mean if per_seed else 0.0)
+            lows.append(max(mean - min(per_seed), 0.0) if per_seed else 0.0)
+            highs.append(max(max(per_seed) - mean, 0.0) if per_seed else 0.0)
         x = np.arange(len(tasks)) + (j - (len(table) - 1) / 2) * width
         ax.bar(x, means, width, yerr=[lows, highs], capsize=3, label=method)
     ax.set_xticks(np.arange(len(tasks)), tasks)

@@ -165,6 +165,7 @@ class _Scheduler:
 
     def start(self) -> None:
         """Queues what can start: the trainings not done, the trials of the runs that are."""
+        trainings = []
         for run in self.runs:
             if run.done:
                 self.skipped["trainings"] += 1
@@ -172,30 +173,28 @@ class _Scheduler:
             else:
                 if run.data not in self.datasets:
                     self.datasets[run.data] = Blob.of(run.data)  # one copy for all its runs
-                unit = TrainUnit(run.key, run.config.to_dict(), self.datasets[run.data],
-                                 self.grid.training.threads, self.device)
+                trainings.append(TrainUnit(run.key, run.config.to_dict(),
+                                           self.datasets[run.data],
+                                           self.grid.training.threads, self.device))
                 self.by_key[run.key] = (run, None)
-                self.ready.appendleft(unit)  # trainings first: the longest units
+        self.ready.extendleft(reversed(trainings))  # trainings first: the longest units
 
     def next_job(self, in_flight: int) -> TrainUnit | TrialUnit | None:
         return self.ready.popleft() if self.ready else None
 
     def expected(self) -> int:
-        """Units still to run (trials of runs not trained yet estimated from their
-        configs' snapshots), for the progress bar."""
+        """Units still to run, for the progress bar (the selection trials of runs not
+        trained yet are estimated from their configs' snapshots)."""
+        evaluation = len(self.grid.evaluation.embodiments) * self.grid.evaluation.trials
         total = len(self.ready)
         for run in self.runs:
             if not run.done:
                 snapshots = run.config.steps // run.config.snapshot_every \
                     if run.config.snapshot_every else 0
-                total += self._selection_count(max(snapshots, 1)) + self._eval_count()
+                total += max(snapshots, 1) * self.grid.selection.trials + evaluation
+            elif run.pending:  # its evaluation is queued once its selection is done
+                total += evaluation
         return total
-
-    def _selection_count(self, candidates: int) -> int:
-        return candidates * self.grid.selection.trials
-
-    def _eval_count(self) -> int:
-        return len(self.grid.evaluation.embodiments) * self.grid.evaluation.trials
 
     def record(self, key: str, result: object) -> None:
         run, info = self.by_key.pop(key)
