@@ -14,6 +14,7 @@ from typing import NoReturn
 
 from legato_drake import __version__
 from legato_drake.errors import ConfigError, LegatoError, one_line
+from legato_drake.executor import BACKENDS
 from legato_drake.files import check_output_dir, check_output_file
 
 log = logging.getLogger("legato_drake")
@@ -303,15 +304,18 @@ def cmd_select(args: argparse.Namespace) -> int:
     return 0
 
 
-def _csv_list(value: str | None, kind: type = str) -> list | None:
-    """``"a,b"`` -> ``["a", "b"]`` (None stays None)."""
+def _csv_list(value: str | None, flag: str, kind: type = str) -> list | None:
+    """``"a,b"`` -> ``["a", "b"]`` (None stays None); ConfigError naming ``flag``."""
     if value is None:
         return None
     try:
-        return [kind(v.strip()) for v in value.split(",") if v.strip()]
+        items = [kind(v.strip()) for v in value.split(",") if v.strip()]
     except ValueError:
-        raise ConfigError(f"expected a comma-separated list of {kind.__name__}s, got "
+        raise ConfigError(f"{flag}: expected a comma-separated list of {kind.__name__}s, got "
                           f"{value!r}") from None
+    if not items:
+        raise ConfigError(f"{flag}: no names given")
+    return items
 
 
 def cmd_experiment(args: argparse.Namespace) -> int:
@@ -320,8 +324,9 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     from legato_drake.experiment.grid import load_grid, subset
     from legato_drake.experiment.runner import run_experiment
 
-    grid = subset(load_grid(args.grid), _csv_list(args.methods), _csv_list(args.tasks),
-                  _csv_list(args.train_seeds, int), args.trials)
+    grid = subset(load_grid(args.grid), _csv_list(args.methods, "--methods"),
+                  _csv_list(args.tasks, "--tasks"),
+                  _csv_list(args.train_seeds, "--train-seeds", int), args.trials)
     check_output_dir(Path(args.out), "--out")
     executor = make_backend(args.backend, args.workers, args.ray_address)
     report = run_experiment(grid, args.out, executor)
@@ -695,7 +700,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "per trial), OUT/summary.md and OUT/figures/.")
     experiment.add_argument("grid", help="grid file, e.g. configs/experiments/smoke.yaml")
     experiment.add_argument("--out", required=True, help="experiment folder")
-    experiment.add_argument("--backend", default="local", choices=("local", "ray"),
+    experiment.add_argument("--backend", default="local", choices=BACKENDS,
                             help="local worker processes (default) or a Ray cluster")
     experiment.add_argument("--ray-address", default=None, metavar="ADDR",
                             help="an existing Ray cluster (HOST:PORT or auto); default with "

@@ -188,6 +188,9 @@ class RayExecutor(Executor):
                 else:
                     ray.init(address=address, **options)
             except (ConnectionError, RuntimeError, ValueError) as e:
+                if address is None:
+                    raise ConfigError(f"--backend ray: cannot start a local Ray cluster: "
+                                      f"{e}") from None
                 raise ConfigError(f"--ray-address {address}: cannot connect to a Ray "
                                   f"cluster ({e}); a cluster with token authentication "
                                   "needs RAY_AUTH_MODE=token here too") from None
@@ -221,7 +224,9 @@ class RayExecutor(Executor):
     def stream(self, function: Callable[[Job], Result],
                next_job: Callable[[int], Job | None]) -> Iterator[Result]:
         ray = self._ray
-        remote = ray.remote(max_retries=self.max_retries)(function)
+        remote = ray.remote(max_retries=self.max_retries)(_apply)  # any picklable callable
+        inner = getattr(function, "function", function)  # Executor.map's _Indexed wraps it
+        name = getattr(inner, "__name__", type(inner).__name__)  # the tasks' name in Ray
         in_flight: list = []  # object refs, in the order they were started
         completed = False
         try:
@@ -229,7 +234,8 @@ class RayExecutor(Executor):
                 while len(in_flight) < self.workers and \
                         (job := next_job(len(in_flight))) is not None:
                     resources = dict(getattr(job, "resources", None) or {"num_cpus": 1})
-                    in_flight.append(remote.options(**resources).remote(self._shared(job)))
+                    in_flight.append(remote.options(name=name, **resources).remote(
+                        function, self._shared(job)))
                 if not in_flight:
                     completed = True
                     return
@@ -261,10 +267,7 @@ class Blob:
 
     def path(self) -> Path:
         """The file on this machine (written on first use; atomic, so workers may race)."""
-        target = Path(tempfile.gettempdir()) / "legato_drake_blobs" / self.sha256 / self.name
-        if not target.is_file():
-            atomic_write_bytes(target, self.data)
-        return target
+        return _cached(self.sha256, self.name, lambda: self.data)
 
 
 @dataclass(frozen=True, eq=False)
@@ -277,12 +280,26 @@ class SharedBlob:
 
     def path(self) -> Path:
         """The file on this machine (fetched from the object store on first use)."""
-        target = Path(tempfile.gettempdir()) / "legato_drake_blobs" / self.sha256 / self.name
-        if not target.is_file():
+        def fetch() -> bytes:
             import ray
 
-            atomic_write_bytes(target, ray.get(self.ref))
-        return target
+            return ray.get(self.ref)
+
+        return _cached(self.sha256, self.name, fetch)
+
+
+def _cached(sha256: str, name: str, data: Callable[[], bytes]) -> Path:
+    """``TMP/legato_drake_blobs/<sha256>/<name>``, written from ``data()`` if absent."""
+    target = Path(tempfile.gettempdir()) / "legato_drake_blobs" / sha256 / name
+    if not target.is_file():
+        atomic_write_bytes(target, data())
+    return target
+
+
+def _apply(function: Callable[[Job], Result], job: Job) -> Result:
+    """``function(job)`` (what a Ray task runs: ``ray.remote`` takes functions, not the
+    callable objects that ``Executor.map`` wraps)."""
+    return function(job)
 
 
 def make_executor(workers: int = 1, jobs: int | None = None) -> Executor:

@@ -34,16 +34,18 @@ def _cli(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=timeout)
 
 
-def _rows(path: Path) -> dict[str, dict]:
-    """trials.jsonl by key, without what differs between runs (wall time, and the
-    checkpoint's bytes, which record the dataset's file: its timings differ)."""
-    rows = {}
+def _rows(path: Path) -> dict[tuple, dict]:
+    """trials.jsonl by (phase, checkpoint, robot, seed), without what differs between two
+    experiment folders: the wall time, and the checkpoint's hash and so the key (a
+    checkpoint records the path of its dataset, whose file differs in its timings)."""
+    rows, keys = {}, set()
     for line in path.read_text().splitlines():
         row = json.loads(line)
+        assert row["key"] not in keys, "a trial ran twice"
+        keys.add(row.pop("key"))
         for name in ("wall_time", "checkpoint_sha256"):
             row.pop(name)
-        assert row["key"] not in rows, "a trial ran twice"
-        rows[row["key"]] = row
+        rows[row["phase"], row["candidate"], row["embodiment"], row["seed"]] = row
     return rows
 
 
@@ -92,6 +94,9 @@ methods: [{name: a, config: legato_small_state.yaml}]
     ("datasets: [{task: lid}]\nmethods: [{name: a, config: legato_small_state.yaml}, "
      "{name: a, config: bc_rnn_small_state.yaml}]", "expected a unique plain name"),
     ("methods: [", "malformed grid file"),
+    ("datasets: [{task: lid}]\nmethods: [{name: a, config: legato_small_state.yaml}, "
+     "{name: b, config: legato_small_state.yaml}]", "methods[1] (b) trains exactly what "
+     "methods[0] trains"),
 ])
 def test_bad_grids_are_one_line_errors(tmp_path, text, message):
     with pytest.raises(ConfigError, match=re.escape(message)):
@@ -253,8 +258,8 @@ def test_ray_backend_matches_local_and_survives_a_killed_worker(local_run, tmp_p
         deadline = time.monotonic() + 400
         while killed is None and process.poll() is None and time.monotonic() < deadline:
             trained = list(out.glob("runs/*/unit.json"))
-            workers = subprocess.run(["pgrep", "-f", "ray::run_unit"], capture_output=True,
-                                     text=True).stdout.split()
+            workers = subprocess.run(["pgrep", "-f", "ray::(run_unit|_apply)"],
+                                     capture_output=True, text=True).stdout.split()
             if trained and workers:  # the training is done: a running unit is a trial
                 killed = int(workers[0])
                 os.kill(killed, signal.SIGKILL)

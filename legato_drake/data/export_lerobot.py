@@ -123,7 +123,8 @@ def export_lerobot(data: str | Path, out: str | Path, overwrite: bool = False) -
             raise DatasetError(f"{data}: no demonstrations to export")
         first = f["data"][demos[0]]
         task = str(first.attrs["task"])
-        has_images = all(key in first["obs"] for key in CAMERAS.values())
+        has_images = all(key in f["data"][name]["obs"] for name in demos
+                         for key in CAMERAS.values())
         columns: dict[str, list] = {k: [] for k in (
             "observation.state", "observation.environment_state", "observation.pose_deltas",
             "action", "timestamp", "frame_index", "episode_index", "index", "task_index")}
@@ -165,13 +166,19 @@ def export_lerobot(data: str | Path, out: str | Path, overwrite: bool = False) -
             episodes.append(row)
             total += n
         embodiment = str(first.attrs["embodiment"])
-        n_object = len(columns["observation.environment_state"][0])
+    width = {k: len(columns[k][0]) for k in ("observation.state",
+                                             "observation.environment_state",
+                                             "observation.pose_deltas")}
     features = {
-        "observation.state": {"dtype": "float32", "shape": [9], "names": [
-            "x", "y", "z", "qw", "qx", "qy", "qz", "finger_left", "finger_right"]},
-        "observation.environment_state": {"dtype": "float32", "shape": [n_object],
-                                          "names": None},
-        "observation.pose_deltas": {"dtype": "float32", "shape": [12], "names": None},
+        "observation.state": {"dtype": "float32", "shape": [width["observation.state"]],
+                              "names": ["x", "y", "z", "qw", "qx", "qy", "qz", "finger_left",
+                                        "finger_right"]},
+        "observation.environment_state": {
+            "dtype": "float32", "shape": [width["observation.environment_state"]],
+            "names": None},
+        "observation.pose_deltas": {"dtype": "float32",
+                                    "shape": [width["observation.pose_deltas"]],
+                                    "names": None},
         "action": {"dtype": "float32", "shape": [7], "names": ACTION_NAMES},
         "timestamp": {"dtype": "float32", "shape": [1], "names": None},
         "frame_index": {"dtype": "int64", "shape": [1], "names": None},

@@ -36,19 +36,23 @@ def export_robomimic(data: str | Path, out: str | Path, overwrite: bool = False)
     with open_dataset(data) as f:
         if not sorted_demos(f["data"]):
             raise DatasetError(f"{data}: no demonstrations to export")
+    out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(f".{out.name}.tmp")
-    shutil.copyfile(data, tmp)
     written: list[str] = []
-    with h5py.File(tmp, "r+") as f:
-        for name in sorted_demos(f["data"]):
-            obs = f["data"][name]["obs"]
-            for gray, rgb in RGB_KEYS.items():
-                if gray in obs:
-                    images = obs[gray][()]
-                    obs.create_dataset(rgb, data=np.repeat(images, 3, axis=3),
-                                       compression="gzip", compression_opts=4,
-                                       chunks=(1, *images.shape[1:3], 3))
-                    if rgb not in written:
-                        written.append(rgb)
-    tmp.replace(out)
+    try:
+        shutil.copyfile(data, tmp)
+        with h5py.File(tmp, "r+") as f:
+            for name in sorted_demos(f["data"]):
+                obs = f["data"][name]["obs"]
+                for gray, rgb in RGB_KEYS.items():
+                    if gray in obs and rgb not in obs:
+                        images = obs[gray][()]
+                        obs.create_dataset(rgb, data=np.repeat(images, 3, axis=3),
+                                           compression="gzip", compression_opts=4,
+                                           chunks=(1, *images.shape[1:3], 3))
+                        if rgb not in written:
+                            written.append(rgb)
+        tmp.replace(out)
+    finally:
+        tmp.unlink(missing_ok=True)
     return written

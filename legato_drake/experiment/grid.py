@@ -192,6 +192,7 @@ def validate(grid: Grid) -> Grid:
         if tasks.count(task) > 1:
             raise ConfigError(f"datasets: two datasets of task {task!r}; one per task")
     names = [m.name for m in grid.methods]
+    resolved: list[dict] = []
     for i, m in enumerate(grid.methods):
         if not m.name or any(c in m.name for c in "/\\ ") or names.count(m.name) > 1:
             raise ConfigError(f"methods[{i}].name {m.name!r}: expected a unique plain name "
@@ -200,9 +201,14 @@ def validate(grid: Grid) -> Grid:
             raise ConfigError(f"methods[{i}].config: no learning config {m.config!r} next to "
                               f"the grid file or in {CONFIGS_DIR}")
         try:
-            grid.learning_config(m, 0)
+            config = grid.learning_config(m, 0).to_dict()
         except ConfigError as e:
             raise ConfigError(f"methods[{i}] ({m.name}): {e}") from None
+        if config in resolved:
+            raise ConfigError(f"methods[{i}] ({m.name}) trains exactly what methods"
+                              f"[{resolved.index(config)}] trains: give it other overrides "
+                              "(e.g. name=...) or remove it")
+        resolved.append(config)
     t = grid.training
     if not t.seeds or len(set(t.seeds)) != len(t.seeds) or min(t.seeds) < 0:
         raise ConfigError(f"training.seeds must be distinct integers >= 0, got {t.seeds}")

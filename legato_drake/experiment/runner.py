@@ -14,7 +14,8 @@
 Datasets are collected first (their episodes run on the executor); then one stream of jobs
 holds the trainings, each run's selection trials once its training is there, and its
 evaluation trials once its selection is done. A unit is done when its record exists (a
-run's ``unit.json``, a trial's row under its key), so a rerun of a finished grid runs
+run's ``unit.json``, a trial's row under its key: the key names the checkpoint's hash, so
+retrained weights are never credited with old trials), so a rerun of a finished grid runs
 nothing, and a killed one resumes: only the units in flight are lost (a training restarts
 from its beginning).
 """
@@ -62,6 +63,8 @@ class RunPlan:
     data: Path
     key: str
     folder: Path
+    selection: dict[str, list[str]] = field(default_factory=dict)
+    """Candidate checkpoint name -> the keys of its selection trials."""
     pending: set[str] = field(default_factory=set)
     """Keys of its selection trials not yet finished."""
 
@@ -229,17 +232,18 @@ class _Scheduler:
             return
         seeds = range(selection.seed0, selection.seed0 + selection.trials)
         for path in candidates(run.folder):
-            blob, step = Blob.of(path), _step(path)
-            for i, seed in enumerate(seeds):
-                key = unit_key("trial", run.key, path.name, selection.embodiment, run.task,
-                               seed, self.grid.evaluation.duration)
+            blob = Blob.of(path)  # a trial's key names the weights it runs, by their hash
+            keys = [unit_key("trial", run.key, blob.sha256, selection.embodiment, run.task,
+                             seed, self.grid.evaluation.duration) for seed in seeds]
+            run.selection[path.name] = keys
+            for i, (seed, key) in enumerate(zip(seeds, keys, strict=True)):
                 if key in self.ledger:
                     self.skipped["trials"] += 1
                     continue
                 run.pending.add(key)
                 self._queue_trial(run, key, path, blob, selection.embodiment, seed, i,
                                   dict(phase="select", candidate=path.name,
-                                       checkpoint_step=step))
+                                       checkpoint_step=_step(path)))
         if not run.pending:
             self._after_selection(run)
 
@@ -247,10 +251,9 @@ class _Scheduler:
         selection = self.grid.selection
         seeds = list(range(selection.seed0, selection.seed0 + selection.trials))
         rows = []
-        for path in candidates(run.folder):
-            trials = [r for r in self.ledger.rows.values() if r["phase"] == "select" and
-                      r["run"] == run.folder.name and r["candidate"] == path.name]
-            rows.append(dict(name=path.name, step=_step(path),
+        for name, keys in run.selection.items():
+            trials = [self.ledger.rows[k] for k in keys if k in self.ledger]
+            rows.append(dict(name=name, step=_step(run.folder / name),
                              successes=sum(bool(t["success"]) for t in trials),
                              trials=len(trials)))
         recorded = run.folder / "selection.json"
@@ -265,13 +268,13 @@ class _Scheduler:
         self._queue_evaluation(run, run.folder / "selected.pt")
 
     def _queue_evaluation(self, run: RunPlan, checkpoint: Path) -> None:
-        evaluation, selection = self.grid.evaluation, self.grid.selection
+        evaluation = self.grid.evaluation
         blob, step = Blob.of(checkpoint), _step(checkpoint)
         for embodiment in evaluation.embodiments:
             for i in range(evaluation.trials):
                 seed = evaluation.seed0 + i
-                key = unit_key("trial", run.key, dataclasses.asdict(selection), embodiment,
-                               run.task, seed, evaluation.duration)
+                key = unit_key("trial", run.key, blob.sha256, embodiment, run.task, seed,
+                               evaluation.duration)
                 self.eval_keys.append(key)
                 if key in self.ledger:
                     self.skipped["trials"] += 1
@@ -292,9 +295,11 @@ class _Scheduler:
 
 
 def _step(checkpoint: Path) -> int:
-    """The training step of a checkpoint."""
+    """The training step of a checkpoint (a snapshot's is in its name)."""
     from legato_drake.learning.checkpoint import load_checkpoint
 
+    if checkpoint.stem.startswith("step_"):
+        return int(checkpoint.stem.split("_")[1])
     return load_checkpoint(checkpoint).step
 
 

@@ -1,9 +1,10 @@
 """The units of work of an experiment, as jobs for any executor backend.
 
 A unit is identified by ``unit_key``: a hash of everything its result depends on (a
-dataset's spec; a training run's dataset and resolved learning config; a trial's run,
-selection, embodiment, task, scene seed and duration). Finished units are recorded under
-their key, so a rerun skips them, and changing one input reruns only what depends on it.
+dataset's spec; a training run's dataset and resolved learning config; a trial's run, the
+SHA-256 of the checkpoint it runs, embodiment, task, scene seed and duration). Finished
+units are recorded under their key, so a rerun skips them, and changing one input reruns
+only what depends on it.
 
 Jobs carry the files they need (``Blob``: a dataset, a checkpoint; the Ray backend passes
 them by reference into its object store, ``SharedBlob``) and return what they made
@@ -33,7 +34,9 @@ def unit_key(*parts: object) -> str:
 @dataclass(frozen=True)
 class TrainUnit:
     """One training run: its key, the resolved learning config (as a dict), the dataset, the
-    torch threads and the device it asks for."""
+    torch threads and the device it asks for (the run's ``cpu_threads`` becomes
+    ``threads``: how many cores a worker may use is the backend's business, not the
+    method's)."""
 
     key: str
     config: dict
@@ -72,12 +75,9 @@ def run_unit(unit: TrainUnit | TrialUnit) -> tuple[str, object]:
 
 
 def _train(unit: TrainUnit) -> dict[str, bytes]:
-    import torch
-
     from legato_drake.learning.config import config_from_dict
     from legato_drake.learning.train import train
 
-    torch.set_num_threads(unit.threads)
     config = config_from_dict({**unit.config, "cpu_threads": unit.threads}, unit.key)
     with tempfile.TemporaryDirectory(prefix="legato_drake_train_") as folder:
         train(config, unit.data.path(), folder, device=unit.device, progress=False)
