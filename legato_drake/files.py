@@ -3,8 +3,11 @@ reading the text files users write, and checking output locations before any wor
 
 from __future__ import annotations
 
+import csv
+import io
 import os
 import tempfile
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from legato_drake.errors import ConfigError
@@ -13,6 +16,15 @@ from legato_drake.errors import ConfigError
 def atomic_write_text(path: Path, text: str) -> None:
     """Writes ``text`` to ``path`` through a temporary file and an atomic rename."""
     atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def atomic_write_csv(path: Path, fields: Sequence[str], rows: Iterable[dict]) -> None:
+    """Writes ``rows`` as CSV with the columns ``fields`` (other keys ignored), atomically."""
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=list(fields), extrasaction="ignore")
+    writer.writeheader()
+    writer.writerows(rows)
+    atomic_write_text(path, buffer.getvalue())
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:

@@ -22,9 +22,7 @@ from its beginning).
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import io
 import json
 import logging
 import os
@@ -37,7 +35,7 @@ from legato_drake.errors import ConfigError
 from legato_drake.executor import Blob, Executor, RayExecutor
 from legato_drake.experiment.grid import Grid, MethodSpec, grid_dict
 from legato_drake.experiment.units import TrainUnit, TrialUnit, run_unit, unit_key
-from legato_drake.files import atomic_write_bytes, atomic_write_text
+from legato_drake.files import atomic_write_bytes, atomic_write_csv, atomic_write_text
 from legato_drake.learning.config import LearningConfig
 from legato_drake.pipelines.collect import collect
 from legato_drake.pipelines.evaluate import TrialJob, trial_order, trial_scenario
@@ -351,8 +349,4 @@ def evaluation_rows(rows: dict[str, dict], keys: Iterable[str],
 
 def write_results_csv(path: Path, rows: list[dict]) -> None:
     """``results.csv``: one row per evaluation trial (atomically)."""
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=RESULT_FIELDS, extrasaction="ignore")
-    writer.writeheader()
-    writer.writerows(rows)
-    atomic_write_text(path, buffer.getvalue())
+    atomic_write_csv(path, RESULT_FIELDS, rows)

@@ -22,9 +22,7 @@ raises is recorded as a failure with the error as its reason.
 
 from __future__ import annotations
 
-import csv
 import hashlib
-import io
 import json
 import logging
 import math
@@ -37,7 +35,7 @@ from legato_drake.embodiments import EMBODIMENTS
 from legato_drake.episode import run_episode
 from legato_drake.errors import ConfigError
 from legato_drake.executor import Executor, make_executor
-from legato_drake.files import atomic_write_bytes, atomic_write_text
+from legato_drake.files import atomic_write_bytes, atomic_write_csv, atomic_write_text
 from legato_drake.progress import progress_bar
 from legato_drake.scenario import Scenario
 from legato_drake.summary import Rate, group_by
@@ -123,11 +121,7 @@ def load_results(path: str | Path) -> dict:
 def write_results(path: Path, doc: dict) -> None:
     """Writes the JSON results and the CSV of its trials, both atomically."""
     atomic_write_text(path, json.dumps(doc, indent=1))
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=TRIAL_FIELDS, extrasaction="ignore")
-    writer.writeheader()
-    writer.writerows(doc["trials"])
-    atomic_write_text(path.with_suffix(".csv"), buffer.getvalue())
+    atomic_write_csv(path.with_suffix(".csv"), TRIAL_FIELDS, doc["trials"])
 
 
 def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence[str],
