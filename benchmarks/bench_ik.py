@@ -63,6 +63,7 @@ def bench(name: str, steps: int) -> list:
     ik = WholeBodyIK(plant, robot)
     rng = np.random.default_rng(0)
     q, v = robot.home_positions.copy(), np.zeros(ik.num_joints)
+    active = None  # the warm start the system keeps in its state
     goals = targets(ik.tcp_pose(q), steps, rng)
 
     context = plant.CreateDefaultContext()
@@ -74,7 +75,7 @@ def bench(name: str, steps: int) -> list:
     ours, theirs, qp_share = [], [], 0
     for X_des in goals:
         start = time.perf_counter()
-        step = ik.solve(q, v, X_des, np.zeros(6))
+        step = ik.solve(q, v, X_des, np.zeros(6), active)
         ours.append(time.perf_counter() - start)
         qp_share += step.status == "qp"
 
@@ -89,7 +90,7 @@ def bench(name: str, steps: int) -> list:
             start = time.perf_counter()
             DoDifferentialInverseKinematics(plant, context, V, robot.tcp_frame, params)
             theirs.append(time.perf_counter() - start)
-        v = step.v
+        v, active = step.v, step.active if step.active is not None else active
         q = np.clip(q + v * ik._dt, ik._q_min, ik._q_max)
     ours_ms, theirs_ms = 1e3 * np.array(ours), 1e3 * np.array(theirs)
     reference = REFERENCE_MS.get(name)

@@ -102,6 +102,10 @@ class EpisodeRun:
         empty."""
         self._success_port = built.success.GetOutputPort("success")
         self._done_port = built.controller.GetOutputPort("done")
+        root = self.simulator.get_context()
+        # The monitor runs at every step: the subsystems' contexts are looked up once.
+        self._success_context = built.success.GetMyContextFromRoot(root)
+        self._controller_context = built.controller.GetMyContextFromRoot(root)
         self._done_since: list[float] = []
         self._result: EpisodeResult | None = None
         self.simulator.set_monitor(self._monitor)
@@ -133,11 +137,10 @@ class EpisodeRun:
 
     def _monitor(self, root_context) -> EventStatus:
         built, scenario = self.built, self.built.scenario
-        if scenario.stop_on_success and self._success_port.Eval(
-                built.success.GetMyContextFromRoot(root_context))[0] > 0.5:
+        if scenario.stop_on_success and self._success_port.Eval(self._success_context)[0] > 0.5:
             self.stopped = "success"
             return EventStatus.ReachedTermination(built.diagram, "success")
-        if self._done_port.Eval(built.controller.GetMyContextFromRoot(root_context))[0] > 0.5:
+        if self._done_port.Eval(self._controller_context)[0] > 0.5:
             if not self._done_since:
                 self._done_since.append(root_context.get_time())
             elif root_context.get_time() - self._done_since[0] >= DONE_GRACE:

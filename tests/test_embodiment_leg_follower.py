@@ -48,7 +48,9 @@ def write_yaml_spot(folder, **overrides) -> str:
             "joint_speed_limits: {" + ", ".join(
                 f"{j}: {v!r}" for j, v in ik.joint_speed_limits.items()) + "}",
             "joint_acceleration_limits: {" + ", ".join(
-                f"{j}: {v!r}" for j, v in ik.joint_acceleration_limits.items()) + "}"]) + "}",
+                f"{j}: {v!r}" for j, v in ik.joint_acceleration_limits.items()) + "}",
+            "joint_position_limits: {" + ", ".join(
+                f"{j}: {_flow(v)}" for j, v in ik.joint_position_limits.items()) + "}"]) + "}",
         "leg_follower": f"{{body_joints: {_flow(BODY_JOINTS)}, leg_joints: {_flow(LEG_JOINTS)}}}",
         "foot_frames": "[fl_foot, fr_foot, hl_foot, hr_foot]",
     }

@@ -55,7 +55,13 @@ SPOT = Embodiment(
                   posture_joints=BODY_JOINTS + ("arm_sh0", "arm_el1", "arm_wr1"),
                   max_joint_speed=2.5, max_joint_acceleration=100.0,
                   joint_speed_limits={j: 1.0 for j in BODY_JOINTS},
-                  joint_acceleration_limits={j: 1.0 for j in BODY_JOINTS}),
+                  joint_acceleration_limits={j: 1.0 for j in BODY_JOINTS},
+                  # At the top of its range the body's front corner reaches under the
+                  # table's near edge (x 0.30, z 0.585): on the ladle task the IK lifted it
+                  # there, the table pushed it down by up to 27 mm (150-310 N), and the
+                  # gripper (25-40 mm) and the feet (27-40 mm, following the commanded body)
+                  # with it. Kept below 0.42 m it never touches the table.
+                  joint_position_limits={"body_z": (0.3, 0.42)}),
     ik_joints=BODY_JOINTS + _ARM,
     leg_follower=LegFollower(body_joints=BODY_JOINTS, leg_joints=LEG_JOINTS,
                              geometry=SPOT_LEG_GEOMETRY),

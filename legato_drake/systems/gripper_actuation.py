@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
@@ -40,13 +42,14 @@ class GripperActuation(LeafSystem):
         return self._grasp
 
     def _step(self, context: Context, discrete_state: DiscreteValues) -> None:
-        q, _ = context.get_discrete_state(self._state).get_value()
-        command = self._grasp.Eval(context)[0]
-        if not np.isfinite(command):
+        q = float(context.get_discrete_state(self._state).get_value()[0])
+        command = float(self._grasp.Eval(context)[0])
+        if not math.isfinite(command):
             discrete_state.set_value(self._state, [q, 0.0])
             return
         goal = 0.0 if command >= 0.5 else self._open
-        step = np.clip(goal - q, -self._speed * self._period, self._speed * self._period)
+        limit = self._speed * self._period
+        step = min(max(goal - q, -limit), limit)
         discrete_state.set_value(self._state, [q + step, step / self._period])
 
     def _calc(self, context: Context, output: BasicVector) -> None:

@@ -46,6 +46,7 @@ class GripperTargetIntegrator(LeafSystem):
         super().__init__()
         self._X_home, self._X_start = X_home, X_start
         self._t_start, self._period = t_start, period
+        self._decoded: tuple[bytes, RigidTransform, RigidTransform] | None = None
         self._delta = self.DeclareVectorInputPort("delta", 6)
         start = pose_to_vector(X_start)
         self._state = self.DeclareDiscreteState(np.concatenate([start, start, [t_start]]))
@@ -81,12 +82,20 @@ class GripperTargetIntegrator(LeafSystem):
             s, ds = self._blend(t)
             return self._X_home, self._X_start, s, ds
         x = context.get_discrete_state(self._state).get_value()
+        X0, X1 = self._poses(x)
         alpha = (t - x[14]) / self._period
         if alpha >= 1.0:
-            X = vector_to_pose(x[7:14])
-            return X, X, 1.0, 0.0
-        return vector_to_pose(x[0:7]), vector_to_pose(x[7:14]), max(alpha, 0.0), \
-            1.0 / self._period
+            return X1, X1, 1.0, 0.0
+        return X0, X1, max(alpha, 0.0), 1.0 / self._period
+
+    def _poses(self, x: np.ndarray) -> tuple[RigidTransform, RigidTransform]:
+        """The segment's end poses decoded from the state ``x``; remembered for the state
+        they came from (the state changes at 10 Hz, the outputs are read at 100 Hz and more),
+        so this is a cache of a pure function, not state."""
+        key = x[:14].tobytes()
+        if self._decoded is None or self._decoded[0] != key:
+            self._decoded = (key, vector_to_pose(x[0:7]), vector_to_pose(x[7:14]))
+        return self._decoded[1], self._decoded[2]
 
     def _calc_pose(self, context: Context, output: AbstractValue) -> None:
         X0, X1, s, _ = self._segment(context)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -10,12 +11,15 @@ from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
-from pydrake.solvers import MathematicalProgram, OsqpSolver, SolverOptions
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 from legato_drake import conventions
 from legato_drake.poses import rotation_log
 from legato_drake.robot_types import RobotHandles
+from legato_drake.systems.box_qp import solve_box_qp
+
+_HOLD_WEIGHT = 1e6
+"""Stage 2's weight on keeping stage 1's gripper velocity (relative to its own, O(1))."""
 
 
 @dataclass
@@ -24,9 +28,11 @@ class IkStep:
 
     v: np.ndarray
     status: str
-    """``unconstrained`` (both stages' optima are inside the bounds), ``qp`` (OSQP solved a
-    stage with bounds active), ``hold`` (non-finite target: decelerate and stop) or
-    ``failed`` (solver failure: decelerate and stop)."""
+    """``unconstrained`` (both stages' optima are inside the bounds), ``qp`` (``box_qp``
+    solved a stage with bounds active) or ``hold`` (non-finite target: decelerate, stop)."""
+    active: np.ndarray | None = None
+    """Both stages' active sets (2n: -1 lower bound, +1 upper, 0 free), the next solve's
+    warm start; None where no QP was solved."""
 
 
 class WholeBodyIK(LeafSystem):
@@ -51,13 +57,14 @@ class WholeBodyIK(LeafSystem):
     the robot is saturated, ``c_p`` (``IkSettings.posture_task_weight``) sets how much
     tracking it may cost: none by default (strict priority), a little on Spot, where it keeps
     the arm out of a twisted branch it would otherwise follow into a joint limit. Each stage
-    is a linear solve where its optimum is inside the bounds and an OSQP QP where not.
+    is a linear solve where its optimum is inside the bounds and, where not, a QP solved exactly
+    by ``box_qp`` (a dense active-set method warm started from the clipped linear solve).
     Redundancy is resolved in the metric ``W`` (``IkSettings.joint_velocity_weights``,
     diagonal, 1 by default: ``|v|^2`` above is ``v^T W v``), so heavily weighted joints (a
     slow mobile base) move only where the others cannot do the job.
     The commanded joint positions are integrated (``q += v dt``) and clamped to the limits, so
-    they never leave them. A NaN or infinite target, or a solver failure, makes the robot
-    decelerate within its acceleration limit and hold.
+    they never leave them. A NaN or infinite target makes the robot decelerate within its
+    acceleration limit and hold.
 
     Input ports:
         X_WG_desired (RigidTransform): TCP target pose in the world.
@@ -66,7 +73,9 @@ class WholeBodyIK(LeafSystem):
     Output ports:
         desired_state (2n): [q_cmd; v_cmd] of the robot's actuated joints, for the joint PD.
 
-    State: discrete [q_cmd (n), v_cmd (n)].
+    State: discrete [q_cmd (n), v_cmd (n), active (2n)]: the commanded joint state and both
+    QP stages' last active sets (a warm start: they change the speed of the solve, not its
+    result).
     """
 
     def __init__(self, plant: MultibodyPlant, robot: RobotHandles,
@@ -111,31 +120,21 @@ class WholeBodyIK(LeafSystem):
         """Set to a list to profile: the wall time of every solve is appended (benchmarks
         only; it is not part of the context and changes nothing the system computes)."""
 
-        # Stage 1: the gripper task within the bounds. Stage 2: the rest, the gripper held.
-        self._prog = MathematicalProgram()
-        v = self._prog.NewContinuousVariables(n, "v")
-        self._cost = self._prog.AddQuadraticCost(np.eye(n), np.zeros(n), v, is_convex=True)
-        self._bounds = self._prog.AddBoundingBoxConstraint(-np.ones(n), np.ones(n), v)
-        self._posture_prog = MathematicalProgram()
-        v = self._posture_prog.NewContinuousVariables(n, "v")
-        self._posture_cost = self._posture_prog.AddQuadraticCost(np.eye(n), np.zeros(n), v,
-                                                                 is_convex=True)
-        self._task_hold = self._posture_prog.AddLinearEqualityConstraint(
-            np.zeros((6, n)), np.zeros(6), v)
-        self._posture_bounds = self._posture_prog.AddBoundingBoxConstraint(
-            -np.ones(n), np.ones(n), v)
-        self._solver = OsqpSolver()
-        # No polishing: where it finds no active set OSQP prints "Polishing not needed" on
-        # stdout whatever the verbosity; the tolerances below are tight enough without it.
-        self._options = SolverOptions()
-        for key, value in (("verbose", 0), ("polishing", 0), ("eps_abs", 1e-7),
-                           ("eps_rel", 1e-7), ("max_iter", 4000)):
-            self._options.SetOption(OsqpSolver.id(), key, value)
+        # Constants of the solve, computed once.
+        self._inv_scale = 1.0 / self._scale
+        self._two_a = 2.0 * self._a_max
+        self._a_dt = self._a_max * period
+        self._posture_gain = settings.posture_gain * self._posture_mask / self._scale
+        self._eye = np.eye(n)
+        self._eps = 1e-6 * self._eye
+        self._eps6 = 1e-6 * np.eye(6)
+        self._stage2_H = settings.posture_weight * self._eye + self._eps
+        self._origin = np.zeros(3)
 
         self._X_input = self.DeclareAbstractInputPort(
             "X_WG_desired", AbstractValue.Make(RigidTransform()))
         self._V_input = self.DeclareVectorInputPort("V_WG_desired", 6)
-        self._state = self.DeclareDiscreteState(np.concatenate([self._q_home, np.zeros(n)]))
+        self._state = self.DeclareDiscreteState(np.concatenate([self._q_home, np.zeros(3 * n)]))
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         self.DeclareVectorOutputPort("desired_state", 2 * n, self._calc_desired_state,
                                      {self.xd_ticket()})
@@ -149,7 +148,7 @@ class WholeBodyIK(LeafSystem):
 
     def set_joint_positions(self, context: Context, q: np.ndarray) -> None:
         """Sets the commanded joint positions (e.g. to match a non-home initial posture)."""
-        context.SetDiscreteState(self._state, np.concatenate([q, np.zeros(self._n)]))
+        context.SetDiscreteState(self._state, np.concatenate([q, np.zeros(3 * self._n)]))
 
     @property
     def num_joints(self) -> int:
@@ -163,82 +162,83 @@ class WholeBodyIK(LeafSystem):
 
     def velocity_bounds(self, q: np.ndarray, v_prev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Joint velocity bounds from position, speed, braking and acceleration limits."""
-        dt, a = self._dt, self._a_max
+        dt = self._dt
         m_low = np.minimum(self._q_min - q, 0.0)
         m_up = np.maximum(self._q_max - q, 0.0)
-        lb = np.maximum.reduce([m_low / dt, -self._v_max, -np.sqrt(2 * a * -m_low)])
-        ub = np.minimum.reduce([m_up / dt, self._v_max, np.sqrt(2 * a * m_up)])
-        lb_acc = np.maximum(lb, v_prev - a * dt)
-        ub_acc = np.minimum(ub, v_prev + a * dt)
+        lb = np.maximum(np.maximum(m_low / dt, -self._v_max), -np.sqrt(self._two_a * -m_low))
+        ub = np.minimum(np.minimum(m_up / dt, self._v_max), np.sqrt(self._two_a * m_up))
+        lb_acc = np.maximum(lb, v_prev - self._a_dt)
+        ub_acc = np.minimum(ub, v_prev + self._a_dt)
         # Where the acceleration bound cannot be met inside the position bounds, the position
         # bounds win: brake as hard as they require.
         bad = lb_acc > ub_acc
-        stop = np.clip(v_prev, lb, ub)
-        return np.where(bad, stop, lb_acc), np.where(bad, stop, ub_acc)
+        if bad.any():
+            stop = np.clip(v_prev, lb, ub)
+            lb_acc, ub_acc = np.where(bad, stop, lb_acc), np.where(bad, stop, ub_acc)
+        return lb_acc, ub_acc
 
     def solve(self, q: np.ndarray, v_prev: np.ndarray, X_des: RigidTransform,
-              V_ff: np.ndarray) -> IkStep:
-        """One IK step from commanded state (q, v_prev) toward the target; see the class doc."""
+              V_ff: np.ndarray, active: np.ndarray | None = None) -> IkStep:
+        """One IK step from commanded state (q, v_prev) toward the target; see the class doc.
+        ``active`` is a previous step's ``IkStep.active`` (a warm start: it changes how fast
+        the QPs are solved, not their solution)."""
+        n = self._n
+        active = np.zeros(2 * n) if active is None else active
         lb, ub = self.velocity_bounds(q, v_prev)
-        target_ok = (np.all(np.isfinite(X_des.GetAsMatrix34())) and np.all(np.isfinite(V_ff)))
-        if not target_ok:
+        # A sum is finite only if every term is: one test for NaN and infinity.
+        if not (math.isfinite(X_des.GetAsMatrix34().sum()) and math.isfinite(V_ff.sum())):
             return IkStep(np.clip(np.zeros(self._n), lb, ub), "hold")
         self._set_q(q)
         X = self._frame.CalcPoseInWorld(self._plant_context)
         # Everything below is written in u = v / scale, where the metric W is the identity.
         world = self._plant.world_frame()
         J = self._plant.CalcJacobianSpatialVelocity(
-            self._plant_context, JacobianWrtVariable.kV, self._frame, np.zeros(3), world,
+            self._plant_context, JacobianWrtVariable.kV, self._frame, self._origin, world,
             world)[:, self._v_index] * self._scale
-        k = self._settings.tracking_gain
         error = np.concatenate([rotation_log(X_des.rotation() @ X.rotation().inverse()),
                                 X_des.translation() - X.translation()])
-        V = V_ff + k * error
-        eps = 1e-6 * np.eye(self._n)
-        lb_u, ub_u = lb / self._scale, ub / self._scale
-
-        u_posture = (self._settings.posture_gain * self._posture_mask * (self._q_home - q)
-                     / self._scale)
+        V = V_ff + self._settings.tracking_gain * error
+        lb_u, ub_u = lb * self._inv_scale, ub * self._inv_scale
+        u_posture = self._posture_gain * (self._q_home - q)
 
         # Stage 1: the gripper task within the bounds, with the posture term (projected on the
         # null space of J, so it only costs tracking where bounds are active) at weight c_p.
         c_p = self._settings.posture_task_weight
-        H1, g1 = J.T @ J + eps, J.T @ V
+        H1, g1 = J.T @ J + self._eps, J.T @ V
         if c_p > 0.0:
-            P = np.eye(self._n) - J.T @ np.linalg.solve(J @ J.T + 1e-6 * np.eye(6), J)
-            H1 += c_p * P.T @ P
-            g1 += c_p * P.T @ P @ u_posture
+            P = self._eye - J.T @ np.linalg.solve(J @ J.T + self._eps6, J)
+            PtP = c_p * P.T @ P
+            H1 += PtP
+            g1 += PtP @ u_posture
         u_task = np.linalg.solve(H1, g1)
-        saturated = bool(np.any(u_task < lb_u) or np.any(u_task > ub_u))
+        saturated = bool((u_task < lb_u).any() or (u_task > ub_u).any())
+        active_task = np.zeros(n)
         if saturated:
-            self._cost.evaluator().UpdateCoefficients(2.0 * H1, -2.0 * g1)
-            self._bounds.evaluator().set_bounds(lb_u, ub_u)
-            result = self._solver.Solve(self._prog, None, self._options)
-            if not result.is_success():
-                return IkStep(np.clip(np.zeros(self._n), lb, ub), "failed")
-            u_task = np.clip(result.GetSolution(), lb_u, ub_u)
+            stage = solve_box_qp(H1, g1, lb_u, ub_u, u_task, active=active[:n])
+            u_task, active_task = stage.x, stage.active
 
         # Stage 2: secondary tasks and posture, in what leaves J u = J u_task unchanged.
         w = self._settings.posture_weight
-        H, g = w * np.eye(self._n) + eps, w * u_posture
+        H, g = self._stage2_H.copy(), w * u_posture
         for frame, R_home, gain, weight in self._orientation_tasks:
             J_w = self._plant.CalcJacobianSpatialVelocity(
-                self._plant_context, JacobianWrtVariable.kV, frame, np.zeros(3), world,
+                self._plant_context, JacobianWrtVariable.kV, frame, self._origin, world,
                 world)[:3, self._v_index] * self._scale
             R = frame.CalcPoseInWorld(self._plant_context).rotation()
             H += weight * J_w.T @ J_w
             g += weight * J_w.T @ (gain * rotation_log(R_home @ R.inverse()))
-        _, sigma, Vt = np.linalg.svd(J)
-        N = Vt[int(np.sum(sigma > 1e-9 * max(sigma[0], 1e-12))):].T  # null-space basis of J
-        u = u_task + N @ np.linalg.solve(N.T @ H @ N, N.T @ (g - H @ u_task))
-        if np.all(u >= lb_u) and np.all(u <= ub_u):
-            return IkStep(self._scale * u, "qp" if saturated else "unconstrained")
-        self._posture_cost.evaluator().UpdateCoefficients(2.0 * H, -2.0 * g)
-        self._task_hold.evaluator().UpdateCoefficients(J, J @ u_task)
-        self._posture_bounds.evaluator().set_bounds(lb_u, ub_u)
-        result = self._solver.Solve(self._posture_prog, u_task, self._options)
-        u = np.clip(result.GetSolution(), lb_u, ub_u) if result.is_success() else u_task
-        return IkStep(self._scale * u, "qp")
+        # J u = J u_task is held by a penalty a million times the stage's own weights: the
+        # gripper moves within 1e-6 of stage 1's velocity (1e-8 m per step), the stage stays a
+        # box QP, and where no bound is active it is one linear solve.
+        JtJ = _HOLD_WEIGHT * (J.T @ J)
+        H += JtJ
+        g += JtJ @ u_task
+        u = np.linalg.solve(H, g)
+        if not ((u < lb_u).any() or (u > ub_u).any()):
+            return IkStep(self._scale * u, "qp" if saturated else "unconstrained",
+                          np.concatenate([active_task, np.zeros(n)]))
+        stage = solve_box_qp(H, g, lb_u, ub_u, u_task, active=active[n:])
+        return IkStep(self._scale * stage.x, "qp", np.concatenate([active_task, stage.active]))
 
     def _set_q(self, q: np.ndarray) -> None:
         self._q_full[self._q_index] = q
@@ -247,14 +247,16 @@ class WholeBodyIK(LeafSystem):
     # -- events and outputs ---------------------------------------------------------------
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
         x = context.get_discrete_state(self._state).get_value()
-        q, v_prev = x[:self._n], x[self._n:]
+        n = self._n
+        q, v_prev, active = x[:n], x[n:2 * n], x[2 * n:]
         X_des, V_ff = self._X_input.Eval(context), self._V_input.Eval(context)
         start = time.perf_counter()
-        step = self.solve(q, v_prev, X_des, V_ff)
+        step = self.solve(q, v_prev, X_des, V_ff, active)
         if self.solve_times is not None:
             self.solve_times.append(time.perf_counter() - start)
         q_next = np.clip(q + step.v * self._dt, self._q_min, self._q_max)
-        discrete_state.set_value(self._state, np.concatenate([q_next, step.v]))
+        active = active if step.active is None else step.active
+        discrete_state.set_value(self._state, np.concatenate([q_next, step.v, active]))
 
     def _calc_desired_state(self, context: Context, output: BasicVector) -> None:
-        output.SetFromVector(context.get_discrete_state(self._state).get_value())
+        output.SetFromVector(context.get_discrete_state(self._state).get_value()[:2 * self._n])
