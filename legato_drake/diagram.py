@@ -44,6 +44,7 @@ from legato_drake.robot_types import RobotHandles
 from legato_drake.scenario import Scenario
 from legato_drake.systems.episode_recorder import EpisodeRecorder
 from legato_drake.systems.external_controller import ExternalController
+from legato_drake.systems.fisheye import FisheyeLens
 from legato_drake.systems.gravity_compensation import GravityCompensation
 from legato_drake.systems.gripper_actuation import GripperActuation
 from legato_drake.systems.joint_target_mux import JointTargetMux
@@ -111,9 +112,12 @@ def stereo_rig(plant: MultibodyPlant, robot: RobotHandles, scenario: Scenario) -
     base = plant.GetBodyByName(conventions.GRIPPER_BASE_BODY, robot.gripper)
     poses = [plant.GetFrameByName(name, robot.gripper).GetFixedPoseInBodyFrame()
              for name in ("left_camera_optical", "right_camera_optical")]
+    camera = scenario.camera
+    lens = FisheyeLens(camera.width, camera.height, camera.fisheye_fov_deg) \
+        if camera.model == "fisheye" else None
     return StereoRig(plant.GetBodyFrameIdOrThrow(base.index()), poses[0], poses[1],
-                     width=scenario.camera.width, height=scenario.camera.height,
-                     fov_y=float(np.radians(scenario.camera.fov_y_deg)))
+                     width=camera.width, height=camera.height,
+                     fov_y=float(np.radians(camera.fov_y_deg)), lens=lens)
 
 
 def object_bodies(plant: MultibodyPlant, robot: RobotHandles) -> list:

@@ -44,6 +44,15 @@ class CameraConfig:
     """Image height in pixels."""
     fov_y_deg: float = 120.0
     """Vertical field of view of the pinhole model, in degrees."""
+    model: str = "pinhole"
+    """``pinhole`` (the reference's, the default) or ``fisheye``: the T265-like lens of
+    ``systems.fisheye``, ``fisheye_fov_deg`` across its sensor's diagonal, centre-cropped
+    and resized to ``width`` x ``height`` (a wider pinhole render remapped with OpenCV)."""
+    fisheye_fov_deg: float = 163.0
+    """The fisheye's diagonal field of view over the whole 848 x 800 sensor, in degrees."""
+
+
+CAMERA_MODELS = ("pinhole", "fisheye")
 
 
 @dataclass
@@ -156,6 +165,12 @@ class Scenario:
         if not 10.0 <= cam.fov_y_deg < 179.0:
             raise ConfigError(f"camera.fov_y_deg{place} must be in [10, 179), got "
                               f"{cam.fov_y_deg}")
+        if cam.model not in CAMERA_MODELS:
+            raise ConfigError(f"camera.model{place} must be one of {', '.join(CAMERA_MODELS)}, "
+                              f"got {cam.model!r}")
+        if not 60.0 <= cam.fisheye_fov_deg <= 200.0:
+            raise ConfigError(f"camera.fisheye_fov_deg{place} must be in [60, 200], got "
+                              f"{cam.fisheye_fov_deg}")
         noise = self.expert_noise
         for name in ("position_std", "rotation_std_deg"):
             value = getattr(noise, name)

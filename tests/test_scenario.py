@@ -29,6 +29,8 @@ def test_yaml_round_trip(tmp_path):
     ("controller: magic\n", ["controller 'magic'", "scripted"]),
     ("duration: -1\n", ["duration", "positive"]),
     ("camera: {fov_y_deg: 200}\n", ["camera.fov_y_deg"]),
+    ("camera: {model: fish}\n", ["camera.model", "pinhole", "fisheye", "'fish'"]),
+    ("camera: {model: fisheye, fisheye_fov_deg: 20}\n", ["camera.fisheye_fov_deg"]),
 ])
 def test_bad_values_name_the_field_and_the_valid_values(tmp_path, text, words):
     path = tmp_path / "bad.yaml"

@@ -19,6 +19,7 @@ from pydrake.systems.framework import Context, LeafSystem, State
 from pydrake.systems.sensors import CameraInfo
 
 from legato_drake import conventions
+from legato_drake.systems.fisheye import FisheyeLens
 
 RENDERER_NAME = "legato_vtk"
 
@@ -35,11 +36,19 @@ class StereoRig:
     width: int = 128
     height: int = 128
     fov_y: float = np.radians(120.0)
+    """Vertical field of view of the pinhole model (unused with a ``lens``)."""
     renderer: str = RENDERER_NAME
+    lens: FisheyeLens | None = None
+    """A fisheye lens (``camera.model: fisheye``): the images are its remap of a wider render;
+    ``width`` and ``height`` are then the lens's."""
 
     def render_camera(self) -> ColorRenderCamera:
-        """The pinhole model shared by both cameras."""
-        info = CameraInfo(width=self.width, height=self.height, fov_y=self.fov_y)
+        """The pinhole camera both cameras render with (for a fisheye, its wide render)."""
+        if self.lens is not None:
+            side = self.lens.render_size
+            info = CameraInfo(width=side, height=side, fov_y=self.lens.render_fov_y)
+        else:
+            info = CameraInfo(width=self.width, height=self.height, fov_y=self.fov_y)
         core = RenderCameraCore(self.renderer, info, ClippingRange(0.01, 10.0),
                                 RigidTransform())
         return ColorRenderCamera(core, show_window=False)
@@ -48,7 +57,8 @@ class StereoRig:
 class StereoCamera(LeafSystem):
     """Renders the gripper's two cameras every ``period`` and converts them to grayscale.
 
-    Images are ``height x width x 1`` uint8 arrays, row 0 at the top, column 0 at the left as a
+    Pinhole by default; with the rig's ``lens``, a fisheye (``systems.fisheye``). Images are
+    ``height x width x 1`` uint8 arrays, row 0 at the top, column 0 at the left as a
     person behind the gripper looking along its approach axis sees the scene (upright and not
     mirrored; the reference's images were mirrored).
 
@@ -85,6 +95,8 @@ class StereoCamera(LeafSystem):
         for X_PC in (self._rig.X_P_left, self._rig.X_P_right):
             rgba = query.RenderColorImage(self._camera, self._rig.parent_frame, X_PC)
             gray = cv2.cvtColor(rgba.data, cv2.COLOR_RGBA2GRAY)
+            if self._rig.lens is not None:
+                gray = self._rig.lens.remap(gray)
             images.append(gray[:, :, np.newaxis])
         return images[0], images[1]
 

@@ -32,7 +32,7 @@ class IkStep:
     solved a stage with bounds active) or ``hold`` (non-finite target: decelerate, stop)."""
     active: np.ndarray | None = None
     """Both stages' active sets (2n: -1 lower bound, +1 upper, 0 free), the next solve's
-    warm start; None where no QP was solved."""
+    warm start; None on ``hold``."""
 
 
 class WholeBodyIK(LeafSystem):
@@ -57,8 +57,10 @@ class WholeBodyIK(LeafSystem):
     the robot is saturated, ``c_p`` (``IkSettings.posture_task_weight``) sets how much
     tracking it may cost: none by default (strict priority), a little on Spot, where it keeps
     the arm out of a twisted branch it would otherwise follow into a joint limit. Each stage
-    is a linear solve where its optimum is inside the bounds and, where not, a QP solved exactly
-    by ``box_qp`` (a dense active-set method warm started from the clipped linear solve).
+    is a linear solve where its optimum is inside the bounds and, where not, a box QP solved
+    exactly by ``box_qp`` (a dense active-set method warm started from the last step's active
+    set); stage 2 holds ``J v = J v_1`` by a penalty 1e6 times its own weights, which keeps
+    it a box QP and the gripper's velocity within 1e-6 of stage 1's.
     Redundancy is resolved in the metric ``W`` (``IkSettings.joint_velocity_weights``,
     diagonal, 1 by default: ``|v|^2`` above is ``v^T W v``), so heavily weighted joints (a
     slow mobile base) move only where the others cannot do the job.
