@@ -1,18 +1,24 @@
-"""L_invar's share of one training step: the step with and without the regularizer.
+"""One training step: L_invar's share of it, and what the image levers buy.
 
 Times one optimizer step (forward, loss, backward, Adam) of a batch of 16 sequences x 20 steps
 for each config, once with ``invariant_weight`` 0 and once with the config's weight, on random
-observations (the time does not depend on the data), and prints the ratio. The paper config
-(ResNet-18 trunks on 2 x 320 images per step) takes tens of seconds per step on a 2-core CPU:
-it runs with ``--configs legato_paper`` (and ``--device cuda`` where there is a GPU). Usage:
+observations (the time does not depend on the data), and prints the ratio. For the image
+configs it then times the step (without L_invar) at each image lever: the crop
+(``image_crop``) and the trunk's precision (``encoder_precision``), and prints ms per step,
+images per second (2 cameras x 320 frames per step) and the speed-up over the uncropped
+float32 step. The paper config (ResNet-18 trunks) takes tens of seconds per step on a 2-core
+CPU: it runs with ``--configs legato_paper`` (and ``--device cuda`` where there is a GPU).
+Usage:
 
     python benchmarks/bench_training_step.py [--steps 20] [--threads 1] [--device cpu]
+        [--configs legato_small_state,legato_small_image] [--json FILE]
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import time
 from pathlib import Path
 
@@ -20,6 +26,7 @@ import numpy as np
 import torch
 
 from legato_drake.data.derived import observation_sizes
+from legato_drake.data.layout import HISTORY_KEYS
 from legato_drake.learning.config import load_config
 from legato_drake.learning.policies import IMAGE_KEYS, RecurrentGMMPolicy
 from legato_drake.summary import format_table
@@ -51,7 +58,8 @@ def time_steps(config, steps: int, device: str) -> float:
     torch.manual_seed(0)
     policy = RecurrentGMMPolicy(config, stats).to(device)
     optimizer = torch.optim.Adam(policy.parameters(), lr=config.lr)
-    batch = random_batch(config.obs_keys, device)
+    # L_invar reads the commanded pose deltas whether or not the policy observes them.
+    batch = random_batch(list(dict.fromkeys([*config.obs_keys, *HISTORY_KEYS])), device)
     times = []
     for _ in range(steps + 2):
         start = time.perf_counter()
@@ -65,15 +73,21 @@ def time_steps(config, steps: int, device: str) -> float:
     return float(np.median(times[2:]))
 
 
+IMAGE_LEVERS = [(0, "float32"), (0, "bfloat16"), (96, "float32"), (84, "float32"),
+                (84, "bfloat16")]
+"""(image_crop, encoder_precision) pairs timed for the image configs."""
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=20)
     parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--configs", default="legato_small_state,legato_small_image")
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the rows there")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
-    rows = []
+    rows, levers, records = [], [], []
     for name in args.configs.split(","):
         config = load_config(CONFIGS / f"{name}.yaml")
         weight = config.invariant_weight or 0.005
@@ -83,10 +97,32 @@ def main() -> None:
                                 args.steps, args.device)
         rows.append([name, 1e3 * without, 1e3 * with_invar,
                      100.0 * (with_invar - without) / without])
+        records.append(dict(config=name, ms_without_invar=1e3 * without,
+                            ms_with_invar=1e3 * with_invar))
+        if config.obs_mode != "image":
+            continue
+        base = None
+        for crop, precision in IMAGE_LEVERS:
+            seconds = time_steps(dataclasses.replace(
+                config, invariant_weight=0.0, image_crop=crop, encoder_precision=precision),
+                args.steps, args.device)
+            base = base or seconds
+            images = 2 * BATCH * SEQUENCE / seconds
+            levers.append([name, crop or 128, precision, 1e3 * seconds, images,
+                           f"{base / seconds:.1f}x"])
+            records.append(dict(config=name, image_crop=crop, encoder_precision=precision,
+                                ms_per_step=1e3 * seconds, images_per_s=images))
     print(f"batch {BATCH} x {SEQUENCE} steps, {args.device}, torch {torch.__version__}, "
           f"{args.threads} thread(s), median of {args.steps} steps")
     print(format_table(["config", "ms/step without L_invar", "ms/step with L_invar",
                         "L_invar adds %"], rows))
+    if levers:
+        print()
+        print(format_table(["config", "image px", "precision", "ms/step", "images/s",
+                            "speed-up"], levers))
+    if args.json is not None:
+        args.json.write_text(json.dumps(dict(threads=args.threads, device=args.device,
+                                             rows=records), indent=1))
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ import torch.nn.functional as F  # noqa: N812
 
 from legato_drake.data.derived import observation_sizes
 from legato_drake.data.torch_dataset import DemoSequenceDataset, image_to_tensor
-from legato_drake.learning.encoders import ImageEncoder, SpatialSoftmax
+from legato_drake.learning.encoders import ImageEncoder, SpatialSoftmax, crop_images
 from legato_drake.learning.normalization import OBS_MIN_STD, Normalizer, compute_stats
 from legato_drake.learning.policies import PolicyOutput, RecurrentGMMPolicy
 from tests.learning_helpers import synthetic_dataset, tiny_config
@@ -45,6 +45,52 @@ def _batch(image: int = 0) -> dict:
 def test_image_encoder_shape(trunk, size, channels):
     encoder = ImageEncoder(trunk, keypoints=32, feature_dim=64, channels=channels)
     assert encoder(torch.rand(2, 1, size, size)).shape == (2, 64)
+
+
+def test_crops_are_windows_of_the_image_random_in_training_centred_at_rollout():
+    """``crop_images`` is the one crop of training (random) and rollout (centred)."""
+    images = torch.arange(3 * 2 * 10 * 12, dtype=torch.float32).reshape(3, 2, 10, 12)
+    centre = crop_images(images, 6, random=False)
+    torch.testing.assert_close(centre, images[:, :, 2:8, 3:9])
+    torch.manual_seed(0)
+    crops = crop_images(images, 6, random=True)
+    assert crops.shape == (3, 2, 6, 6)
+    offsets = set()
+    for n in range(3):
+        top, left = divmod(int(crops[n, 0, 0, 0] - images[n, 0, 0, 0]), 12)
+        torch.testing.assert_close(crops[n], images[n, :, top:top + 6, left:left + 6])
+        offsets.add((top, left))
+    assert len(offsets) > 1  # each image its own offset
+    torch.manual_seed(0)
+    torch.testing.assert_close(crop_images(images, 6, random=True), crops)  # seeded
+    with pytest.raises(ValueError, match="image_crop 16"):
+        crop_images(images, 16, random=False)
+
+
+@pytest.mark.parametrize("precision", ["float32", "bfloat16"])
+def test_the_encoder_crops_in_training_not_at_rollout(precision):
+    """With ``crop``, eval mode is deterministic (the centre crop) and equals encoding the
+    centre crop without ``crop``; train mode varies with the random crop. bfloat16 changes
+    the numbers a little, not the output's type or shape."""
+    torch.manual_seed(0)
+    encoder = ImageEncoder("small", keypoints=8, feature_dim=16, channels=[4, 8], crop=24,
+                           precision=precision)
+    images = torch.rand(4, 1, 32, 32)
+    encoder.eval()
+    out = encoder(images)
+    assert out.dtype == torch.float32 and out.shape == (4, 16)
+    torch.testing.assert_close(encoder(images), out)
+    encoder.crop = 0
+    torch.testing.assert_close(encoder(images[:, :, 4:28, 4:28]), out)
+    encoder.crop = 24
+    encoder.train()
+    assert not torch.allclose(encoder(images), out)
+    if precision == "bfloat16":
+        full = ImageEncoder("small", keypoints=8, feature_dim=16, channels=[4, 8], crop=24)
+        full.load_state_dict(encoder.state_dict())
+        full.eval(), encoder.eval()
+        difference = (full(images) - encoder(images)).abs().max()
+        assert 0 < difference < 0.1
 
 
 def test_spatial_softmax_keypoints_in_range_and_at_a_known_peak():

@@ -53,6 +53,12 @@ def test_config_errors_name_the_field_and_the_file(tmp_path):
     bad.write_text("obs_mode: lidar\n")
     with pytest.raises(ConfigError, match="obs_mode.*image, state"):
         load_config(bad)
+    bad.write_text("encoder_precision: half\n")
+    with pytest.raises(ConfigError, match="encoder_precision.*float32, bfloat16.*'half'"):
+        load_config(bad)
+    bad.write_text("image_crop: 200\n")
+    with pytest.raises(ConfigError, match="image_crop.*0 .no crop. or 8-128"):
+        load_config(bad)
     with pytest.raises(ConfigError, match="not found"):
         load_config(tmp_path / "missing.yaml")
     with pytest.raises(ConfigError, match="unknown field 'invariant'"):

@@ -81,11 +81,38 @@ class SpatialSoftmax(nn.Module):
         return self.expected_xy(self.project(features))
 
 
+def crop_images(images: torch.Tensor, size: int, random: bool) -> torch.Tensor:
+    """Square ``size`` crops of images (N, C, H, W): at a random offset per image
+    (``random``, training: robomimic's crop randomizer) or at the centre (rollout). The one
+    crop of training and rollout: ``ImageEncoder`` applies it in its forward, random in
+    ``train()`` mode and centred in ``eval()`` mode."""
+    N, _, H, W = images.shape
+    if size > min(H, W):
+        raise ValueError(f"image_crop {size} is larger than the {H}x{W} images")
+    if not random:
+        top, left = (H - size) // 2, (W - size) // 2
+        return images[:, :, top:top + size, left:left + size]
+    top = torch.randint(0, H - size + 1, (N,), device=images.device)
+    left = torch.randint(0, W - size + 1, (N,), device=images.device)
+    steps = torch.arange(size, device=images.device)
+    rows = (top[:, None] + steps)[:, :, None]                     # (N, size, 1)
+    cols = (left[:, None] + steps)[:, None, :]                    # (N, 1, size)
+    batch = torch.arange(N, device=images.device)[:, None, None]
+    return images.permute(0, 2, 3, 1)[batch, rows, cols].permute(0, 3, 1, 2)
+
+
 class ImageEncoder(nn.Module):
-    """One camera's encoder: (B, 1, H, W) in [0, 1] -> (B, feature_dim)."""
+    """One camera's encoder: (B, 1, H, W) in [0, 1] -> (B, feature_dim).
+
+    ``crop`` (0: none) crops the images first (``crop_images``: random while training,
+    centred at rollout). The convolutions run channels-last (twice as fast as channels-first
+    on this project's CPUs, measured by ``benchmarks/bench_training_step.py``) and, with
+    ``precision="bfloat16"``, under bfloat16 autocast (twice again where the CPU has
+    AVX-512 BF16; the keypoints' softmax and everything after stay float32)."""
 
     def __init__(self, trunk: str = "resnet18", keypoints: int = 32, feature_dim: int = 64,
-                 channels: list[int] | None = None):
+                 channels: list[int] | None = None, crop: int = 0,
+                 precision: str = "float32"):
         super().__init__()
         if trunk == "resnet18":
             self.trunk, out = resnet18_trunk(1)
@@ -93,9 +120,18 @@ class ImageEncoder(nn.Module):
             self.trunk, out = small_trunk(list(channels or [16, 32, 32]), 1)
         self.keypoints = SpatialSoftmax(out, keypoints)
         self.linear = nn.Linear(2 * keypoints, feature_dim)
+        self.crop = crop
+        self.precision = precision
+        self.to(memory_format=torch.channels_last)
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
-        points = self.keypoints(self.trunk(image))
+        if self.crop:
+            image = crop_images(image, self.crop, random=self.training)
+        image = image.contiguous(memory_format=torch.channels_last)
+        with torch.autocast(image.device.type, dtype=torch.bfloat16,
+                            enabled=self.precision == "bfloat16"):
+            maps = self.keypoints.project(self.trunk(image))
+        points = SpatialSoftmax.expected_xy(maps.float())
         return self.linear(points.flatten(1))
 
 
