@@ -132,8 +132,7 @@ class EpisodeRun:
 
     def success_now(self) -> bool:
         """Whether the task's success predicate holds now."""
-        success = self.built.success
-        return self._success_port.Eval(success.GetMyContextFromRoot(self.context))[0] > 0.5
+        return self._success_port.Eval(self._success_context)[0] > 0.5
 
     def _monitor(self, root_context) -> EventStatus:
         built, scenario = self.built, self.built.scenario

@@ -108,7 +108,7 @@ class ImageEncoder(nn.Module):
     centred at rollout). The convolutions run channels-last (twice as fast as channels-first
     on this project's CPUs, measured by ``benchmarks/bench_training_step.py``) and, with
     ``precision="bfloat16"``, under bfloat16 autocast (twice again where the CPU has
-    AVX-512 BF16; the keypoints' softmax and everything after stay float32)."""
+    AVX-512 BF16; the trunk only: the keypoints and everything after stay float32)."""
 
     def __init__(self, trunk: str = "resnet18", keypoints: int = 32, feature_dim: int = 64,
                  channels: list[int] | None = None, crop: int = 0,
@@ -130,9 +130,8 @@ class ImageEncoder(nn.Module):
         image = image.contiguous(memory_format=torch.channels_last)
         with torch.autocast(image.device.type, dtype=torch.bfloat16,
                             enabled=self.precision == "bfloat16"):
-            maps = self.keypoints.project(self.trunk(image))
-        points = SpatialSoftmax.expected_xy(maps.float())
-        return self.linear(points.flatten(1))
+            features = self.trunk(image)
+        return self.linear(self.keypoints(features.float()).flatten(1))
 
 
 def encode_sequence(encoder: nn.Module, images: torch.Tensor) -> torch.Tensor:
