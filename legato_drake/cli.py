@@ -206,11 +206,15 @@ def cmd_collect(args: argparse.Namespace) -> int:
     summary."""
     from legato_drake.embodiments import EMBODIMENTS
     from legato_drake.pipelines.collect import collect, parts_dir
+    from legato_drake.scenario import CAMERA_MODELS, ExpertNoiseConfig
     from legato_drake.summary import format_table
     from legato_drake.tasks import TASKS
 
     _names(args.task, TASKS, "task")
     _names(args.embodiment, EMBODIMENTS, "embodiment")
+    if args.camera_model not in CAMERA_MODELS:
+        raise ConfigError(f"--camera-model must be one of {', '.join(CAMERA_MODELS)}, got "
+                          f"{args.camera_model!r}")
     out = check_output_file(Path(args.out), "--out")
     check_output_dir(parts_dir(out), "--out")
     if args.max_attempts is not None and args.max_attempts < args.episodes:
@@ -221,13 +225,11 @@ def cmd_collect(args: argparse.Namespace) -> int:
     if args.overwrite:
         _set_aside(args, [out, parts_dir(out), out.with_name(out.name + ".manifest.json")],
                    out.with_name(f".{out.name}.overwritten"))
-    from legato_drake.scenario import ExpertNoiseConfig
-
     report = collect(task=args.task, embodiment=args.embodiment, episodes=args.episodes,
                      out=Path(args.out), workers=args.workers,
                      keep_failures=args.keep_failures, seed0=args.seed0, source=args.source,
-                     camera=not args.no_camera, duration=args.duration,
-                     max_attempts=args.max_attempts,
+                     camera=not args.no_camera, camera_model=args.camera_model,
+                     duration=args.duration, max_attempts=args.max_attempts,
                      expert_noise=ExpertNoiseConfig(args.noise_mm / 1000.0, args.noise_deg,
                                                     args.noise_correlation),
                      stop_on_success=args.stop_on_success)
@@ -565,6 +567,10 @@ def build_parser() -> argparse.ArgumentParser:
                               "episode per file instead of the scripted demonstrator")
     collect.add_argument("--no-camera", action="store_true",
                          help="state-only dataset (no images; about twice as fast)")
+    collect.add_argument("--camera-model", default="pinhole", metavar="MODEL",
+                         help="the cameras' lens: pinhole (default) or fisheye (T265-like, "
+                              "camera.model); an image policy trained on the dataset is "
+                              "rendered the same way wherever it runs")
     collect.add_argument("--duration", type=_seconds, default=None,
                          help="seconds per episode after homing (default: the scenario's 40)")
     collect.add_argument("--max-attempts", type=_int_at_least(1), default=None,

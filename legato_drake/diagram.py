@@ -20,6 +20,7 @@ gravity compensation alone.
 from __future__ import annotations
 
 import dataclasses
+import logging
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -64,7 +65,10 @@ from legato_drake.systems.whole_body_ik import WholeBodyIK
 from legato_drake.tasks import Task, make_task
 
 if TYPE_CHECKING:  # torch is imported only when a policy is used
+    from legato_drake.learning.checkpoint import Checkpoint
     from legato_drake.systems.policy_controller import PolicyController
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -127,13 +131,25 @@ def object_bodies(plant: MultibodyPlant, robot: RobotHandles) -> list:
     return [b for b in free if b.model_instance() not in (robot.robot, robot.gripper)]
 
 
-def _policy_controller(scenario: Scenario, plant: MultibodyPlant, robot: RobotHandles):
-    """The ``PolicyController`` of ``controller: policy`` (torch is imported only here)."""
+def _policy_camera(scenario: Scenario, ckpt: Checkpoint) -> Scenario:
+    """``scenario`` with the camera an image policy was trained on (``Checkpoint.camera``:
+    its model, field of view and size); a policy can only read the images it learned from."""
+    if ckpt.config.obs_mode != "image" or not ckpt.camera:
+        return scenario
+    changed = {k: v for k, v in ckpt.camera.items() if getattr(scenario.camera, k) != v}
+    if not changed:
+        return scenario
+    log.info("camera: %s, as the images of checkpoint %s were recorded",
+             ", ".join(f"{k}={v}" for k, v in changed.items()), scenario.checkpoint)
+    return scenario.replace(camera=dataclasses.replace(scenario.camera, **changed))
+
+
+def _policy_controller(scenario: Scenario, plant: MultibodyPlant, robot: RobotHandles,
+                       ckpt: Checkpoint) -> PolicyController:
+    """The ``PolicyController`` of ``controller: policy`` for the loaded checkpoint."""
     from legato_drake.errors import ConfigError
-    from legato_drake.learning.checkpoint import load_checkpoint
     from legato_drake.systems.policy_controller import PolicyController
 
-    ckpt = load_checkpoint(scenario.checkpoint)
     if ckpt.config.obs_mode == "image":
         if not scenario.camera.enabled:
             raise ConfigError(f"camera.enabled must be true: checkpoint {scenario.checkpoint} "
@@ -153,6 +169,12 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
     samples hold its corrective ``label``). ``controller: replay`` plays
     the scenario's ``pose_stream`` instead of the scripted demonstrator."""
     scenario.validate()
+    ckpt = None
+    if scenario.controller == "policy":
+        from legato_drake.learning.checkpoint import load_checkpoint  # torch only here
+
+        ckpt = load_checkpoint(scenario.checkpoint)
+        scenario = _policy_camera(scenario, ckpt)
     builder = DiagramBuilder()
     plant, scene_graph, robot, task = build_plant(scenario, builder)
     X_home = robot.tcp_frame.CalcPoseInWorld(plant.CreateDefaultContext())
@@ -165,7 +187,7 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
             "pose_stream_replay", PoseStreamReplay(load_pose_stream(scenario.pose_stream)))
     elif scenario.controller == "policy":
         controller = builder.AddNamedSystem(
-            "policy_controller", _policy_controller(scenario, plant, robot))
+            "policy_controller", _policy_controller(scenario, plant, robot, ckpt))
         if controller.obs_mode == "state":
             builder.Connect(state, controller.get_plant_state_input_port())
     elif scenario.controller == "external":

@@ -91,6 +91,8 @@ def _one_error_line(err: str, *words: str) -> str:
     (["collect", "--out", "d.hdf5", "--duration", "inf"], ["--duration"]),
     (["collect", "--out", "d.hdf5", "--seed0", "-1"], ["--seed0"]),
     (["collect", "--out", "d.hdf5", "--workers", "0"], ["--workers"]),
+    (["collect", "--out", "d.hdf5", "--camera-model", "orthographic"],
+     ["--camera-model", "pinhole", "fisheye", "orthographic"]),
     (["demo", "--workers", "0"], ["--workers"]),
     (["demo", "--seeds", "-3"], ["--seeds"]),
     (["retarget-benchmark", "--seeds", "4-1"], ["--seeds"]),

@@ -93,6 +93,21 @@ def test_the_encoder_crops_in_training_not_at_rollout(precision):
         assert 0 < difference < 0.1
 
 
+def test_small_trunk_keypoints_tell_images_apart_at_initialisation():
+    """The small trunk's keypoints must move with the image from the first step on: without
+    its normalisation they were the same to 2e-4 for every image, and the image policy
+    learned no grasp (issue 17). Images: a bright square at eight places on a dark field."""
+    torch.manual_seed(0)
+    images = torch.full((8, 1, 84, 84), 0.1)
+    for i in range(8):
+        top, left = 8 * i, 60 - 7 * i
+        images[i, :, top:top + 16, left:left + 16] = 0.9
+    encoder = ImageEncoder("small", 32, 64, [16, 32, 32]).eval()
+    with torch.no_grad():
+        keypoints = encoder.keypoints(encoder.trunk(images))
+    assert keypoints.std(0).mean() > 5e-3
+
+
 def test_spatial_softmax_keypoints_in_range_and_at_a_known_peak():
     softmax = SpatialSoftmax(8, 5)
     points = softmax(torch.randn(2, 8, 9, 11))

@@ -118,6 +118,20 @@ def read_json_attr(group: h5py.Group, name: str, default: object = None) -> obje
     return json.loads(str(value))
 
 
+CAMERA_FIELDS = ("width", "height", "fov_y_deg", "model", "fisheye_fov_deg")
+"""The ``CameraConfig`` fields that decide what a recorded image looks like."""
+
+
+def recorded_camera(path: str | Path) -> dict:
+    """The camera a dataset's images were rendered with: the ``CAMERA_FIELDS`` of the
+    scenario it was collected in (``data`` attribute ``env_args``); empty if it does not
+    say (a dataset written by other tools)."""
+    with open_dataset(path) as f:
+        env = read_json_attr(f["data"], "env_args", {}) or {}
+    camera = env.get("env_kwargs", {}).get("camera", {})
+    return {k: camera[k] for k in CAMERA_FIELDS if k in camera}
+
+
 def mask_names(f: h5py.File, split: str) -> list[str]:
     """The demo names of ``mask/<split>``."""
     return [n.decode() if isinstance(n, bytes) else str(n) for n in f["mask"][split][()]]

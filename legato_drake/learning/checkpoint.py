@@ -7,7 +7,8 @@ A checkpoint is a ``torch.save``d dict written atomically (a reader never sees h
      "stats": {key: {"mean": [...], "std": [...]}}, "step": int, "best_valid": float,
      "model": state_dict, "optimizer": state_dict | None, "train_seeds": [int, ...],
      "data": str (the dataset it was trained on),
-     "selection": {"seeds": [int, ...], ...} (only in a checkpoint chosen by rollouts)}
+     "selection": {"seeds": [int, ...], ...} (only in a checkpoint chosen by rollouts),
+     "camera": {CameraConfig fields} (an image policy's camera, from its dataset)}
 """
 
 from __future__ import annotations
@@ -48,6 +49,10 @@ class Checkpoint:
     selection: dict = field(default_factory=dict)
     """How the checkpoint was chosen by rollouts (``legato-drake select``): its validation
     scene ``seeds`` (which evaluation must not reuse), the candidates and their successes."""
+    camera: dict = field(default_factory=dict)
+    """The camera an image policy's training images were rendered with (``CameraConfig``
+    fields: model, field of view, size; empty for state policies or datasets that do not
+    say): the diagram renders the policy's images with it."""
 
     @property
     def used_seeds(self) -> list[int]:
@@ -66,7 +71,7 @@ def save_checkpoint(path: str | Path, ckpt: Checkpoint,
         "model": {k: v.detach().cpu() for k, v in ckpt.policy.state_dict().items()},
         "optimizer": optimizer.state_dict() if optimizer is not None else ckpt.optimizer,
         "train_seeds": [int(s) for s in ckpt.train_seeds], "data": str(ckpt.data),
-        "selection": ckpt.selection,
+        "selection": ckpt.selection, "camera": ckpt.camera,
     }
     buffer = io.BytesIO()
     torch.save(payload, buffer)
@@ -99,4 +104,5 @@ def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
     policy.eval()
     return Checkpoint(config, stats, policy, payload["step"], payload["best_valid"],
                       payload["optimizer"], list(payload.get("train_seeds", [])),
-                      payload.get("data", ""), payload.get("selection", {}))
+                      payload.get("data", ""), payload.get("selection", {}),
+                      payload.get("camera", {}))

@@ -35,7 +35,7 @@ import torch
 from torch.utils.data import DataLoader, Sampler
 
 from legato_drake.data.derived import available_observations, read_observation
-from legato_drake.data.layout import DatasetError, open_dataset, sorted_demos
+from legato_drake.data.layout import DatasetError, open_dataset, recorded_camera, sorted_demos
 from legato_drake.data.torch_dataset import DemoSequenceDataset
 from legato_drake.errors import ConfigError
 from legato_drake.files import atomic_write_text
@@ -223,7 +223,8 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
     else:
         stats = dataset_stats(data, config)
         ckpt = Checkpoint(config, stats, build_policy(config, stats).to(device),
-                          train_seeds=train_seeds, data=str(data))
+                          train_seeds=train_seeds, data=str(data),
+                          camera=recorded_camera(data) if config.obs_mode == "image" else {})
     ckpt.config = config
     policy = ckpt.policy
     trained = [p for p in policy.parameters() if p.requires_grad]  # not an EMA copy

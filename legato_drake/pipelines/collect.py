@@ -41,9 +41,16 @@ from legato_drake.scenario import ExpertNoiseConfig, Scenario
 log = logging.getLogger(__name__)
 
 PART_GROUP = "data/demo_0"
-CONFIG_KEYS = ("task", "embodiment", "camera", "duration", "source", "keep_failures",
-               "expert_noise", "stop_on_success")
+CONFIG_KEYS = ("task", "embodiment", "camera", "camera_model", "duration", "source",
+               "keep_failures", "expert_noise", "stop_on_success")
 """Collect settings that change what an episode is: a resumed collection must match them."""
+CONFIG_DEFAULTS = {"camera_model": "pinhole"}
+"""What a setting was before collections recorded it (datasets written by older versions)."""
+
+
+def _setting(config: dict, key: str) -> object:
+    """A collect setting of ``config`` (a recorded one: its default where it predates it)."""
+    return config.get(key, CONFIG_DEFAULTS.get(key))
 
 
 @dataclass(frozen=True)
@@ -184,7 +191,7 @@ def _check_config(folder: Path, config: dict, out: Path) -> None:
     path = folder / "config.json"
     if path.is_file():
         old = json.loads(path.read_text())
-        diff = [k for k in CONFIG_KEYS if old.get(k) != config.get(k)]
+        diff = [k for k in CONFIG_KEYS if _setting(old, k) != config.get(k)]
         if diff:
             raise DatasetError(
                 f"{folder} holds episodes collected with other settings "
@@ -198,7 +205,7 @@ def _restore_parts(out: Path, folder: Path, config: dict) -> None:
     """Turns an existing dataset back into parts (to extend it with more episodes)."""
     with open_dataset(out) as f:
         old = read_json_attr(f["data"], "config", {})
-        diff = [k for k in CONFIG_KEYS if old.get(k) != config.get(k)]
+        diff = [k for k in CONFIG_KEYS if _setting(old, k) != config.get(k)]
         if diff:
             raise DatasetError(
                 f"{out} exists and was collected with other settings "
@@ -287,7 +294,8 @@ def _up_to_date(out: Path, config: dict) -> dict | None:
             manifest = json.loads(f["meta/manifest"][()]) if "meta/manifest" in f else None
     except (DatasetError, KeyError, ValueError, OSError):
         return None
-    same = all(old.get(k) == config.get(k) for k in (*CONFIG_KEYS, "seed0", "keep_failures"))
+    same = all(_setting(old, k) == config.get(k)
+               for k in (*CONFIG_KEYS, "seed0", "keep_failures"))
     if same and manifest and len(manifest.get("kept", [])) == config["episodes"]:
         return manifest
     return None
@@ -295,8 +303,9 @@ def _up_to_date(out: Path, config: dict) -> dict | None:
 
 def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers: int = 1,
             keep_failures: bool = False, seed0: int = 0, source: str | Path | None = None,
-            camera: bool = True, duration: float | None = None,
-            max_attempts: int | None = None, keep_parts: bool = False,
+            camera: bool = True, camera_model: str = "pinhole",
+            duration: float | None = None, max_attempts: int | None = None,
+            keep_parts: bool = False,
             progress: bool | None = None, expert_noise: ExpertNoiseConfig | None = None,
             stop_on_success: bool = False, executor: Executor | None = None
             ) -> CollectReport:
@@ -306,7 +315,8 @@ def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers:
     ``3 episodes + 10``) until ``episodes`` successful ones are kept (any ones with
     ``keep_failures``). With ``source`` (a pose-stream file or folder) each stream is one
     episode, replayed by ``controller: replay`` in the scene of its recorded seed (else
-    ``seed0 + i``). ``camera=False`` records a state-only dataset; ``duration`` overrides the
+    ``seed0 + i``). ``camera=False`` records a state-only dataset, ``camera_model`` picks the
+    lens of its images (``CameraConfig.model``); ``duration`` overrides the
     scenario's episode length. ``expert_noise`` perturbs the scripted expert (DART-style:
     the recorded actions are its corrections, ``ScriptedDemonstrator``). By default an
     episode is recorded to its end (the release, the hold and the retreat after success);
@@ -331,6 +341,7 @@ def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers:
     base = Scenario(embodiment=embodiment, task=task, stop_on_success=stop_on_success,
                     expert_noise=expert_noise or ExpertNoiseConfig())
     base.camera.enabled = camera
+    base.camera.model = camera_model
     if duration is not None:
         base = base.replace(duration=duration)
     base.validate()
@@ -338,6 +349,7 @@ def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers:
     if source is not None:
         source_names = [p.name for p in find_pose_streams(source)[:episodes]]
     config = dict(task=task, embodiment=base.embodiment, camera=camera,
+                  camera_model=camera_model,
                   duration=base.duration, source=source_names, seed0=seed0,
                   keep_failures=keep_failures, episodes=episodes,
                   expert_noise=dataclasses.asdict(base.expert_noise),
