@@ -3,7 +3,8 @@
     python scripts/ship_checkpoint.py experiments/paper/runs/legato-lid-seed0-*/selected.pt \\
         checkpoints/legato_state_lid.pt
 
-The copy keeps the model, its config, the normalisation statistics, the training and
+The copy keeps the weights a rollout needs (``rollout_only``: a Diffusion Policy's EMA copy
+without its trained one), its config, the normalisation statistics, the training and
 selection seeds (so ``evaluate`` still refuses to reuse them) and drops the optimizer state;
 its config is written beside it as ``<name>.yaml``.
 """
@@ -26,6 +27,7 @@ def main() -> None:
     if not ckpt.selection:
         parser.error(f"{args.source} was not chosen by `legato-drake select`")
     ckpt.optimizer = None
+    ckpt.rollout_only = True
     ckpt.data = Path(ckpt.data).name
     save_checkpoint(args.target, ckpt)
     save_config(ckpt.config, args.target.with_suffix(".yaml"))

@@ -173,3 +173,26 @@ def test_rollout_is_deterministic_and_executes_part_of_each_chunk(tmp_path, abst
     assert set(np.unique(actions[:, 6])) <= {0.0, 1.0} and np.isfinite(actions).all()
     again, _, _ = run()  # a fresh context starts afresh: the same actions
     np.testing.assert_array_equal(actions, again)
+
+
+def test_a_shipped_checkpoint_keeps_the_ema_alone_and_acts_the_same(tmp_path):
+    """``rollout_only`` drops the trained copy (half the file) and the policy it loads
+    denoises exactly the chunk the full checkpoint does."""
+    rng = np.random.default_rng(1)
+    config = dp_config("dp_reltraj", state_keys=["fingers"])
+    stats = _stats(config, rng)
+    policy = build_policy(config, stats)
+    with torch.no_grad():  # an EMA that differs from the trained weights
+        for p in policy.net.parameters():
+            p.add_(torch.randn_like(p) * 0.1)
+    full, shipped = tmp_path / "full.pt", tmp_path / "shipped.pt"
+    save_checkpoint(full, Checkpoint(config, stats, policy))
+    save_checkpoint(shipped, Checkpoint(config, stats, policy, rollout_only=True))
+    assert shipped.stat().st_size < 0.6 * full.stat().st_size
+    a, b = load_checkpoint(full), load_checkpoint(shipped)
+    assert b.rollout_only and not a.rollout_only and b.optimizer is None
+    assert not any(k.startswith("net.") for k in torch.load(shipped)["model"])
+    obs = {k: torch.tensor(v["mean"][None]) for k, v in stats.items() if k == "fingers"}
+    chunk_a, _ = a.policy.act(obs, a.policy.initial_state())
+    chunk_b, _ = b.policy.act(obs, b.policy.initial_state())
+    torch.testing.assert_close(chunk_a, chunk_b, rtol=0, atol=0)

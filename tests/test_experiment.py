@@ -8,6 +8,7 @@ import csv
 import json
 import os
 import re
+import secrets
 import shutil
 import signal
 import socket
@@ -228,9 +229,12 @@ def _free_port() -> int:
 
 
 RAY_ENV = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0", "RAY_AUTH_MODE": "token",
+           "RAY_AUTH_TOKEN": secrets.token_hex(32),
            "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0", "RAY_worker_niceness": "0"}
-"""A Ray cluster on the loopback interface only, with token authentication, whose workers
-run at the tests' priority (Ray's default nice 15 starves them beside the other tests)."""
+"""A Ray cluster on the loopback interface only, with token authentication (a fresh token of
+this test run's own, shared by the cluster and the driver through the environment: a fresh
+machine has no ``~/.ray/auth_token``, and ``ray start`` makes none), whose workers run at the
+tests' priority (Ray's default nice 15 starves them beside the other tests)."""
 
 
 def _ray(*args: str) -> subprocess.CompletedProcess:

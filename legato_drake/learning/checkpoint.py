@@ -8,7 +8,9 @@ A checkpoint is a ``torch.save``d dict written atomically (a reader never sees h
      "model": state_dict, "optimizer": state_dict | None, "train_seeds": [int, ...],
      "data": str (the dataset it was trained on),
      "selection": {"seeds": [int, ...], ...} (only in a checkpoint chosen by rollouts),
-     "camera": {CameraConfig fields} (an image policy's camera, from its dataset)}
+     "camera": {CameraConfig fields} (an image policy's camera, from its dataset),
+     "rollout_only": bool (a shipped file: "model" holds only what a rollout needs,
+                     ``PolicyFamily.rollout_state_dict``; it cannot be trained further)}
 """
 
 from __future__ import annotations
@@ -53,6 +55,9 @@ class Checkpoint:
     """The camera an image policy's training images were rendered with (``CameraConfig``
     fields: model, field of view, size; empty for state policies or datasets that do not
     say): the diagram renders the policy's images with it."""
+    rollout_only: bool = False
+    """Keep only the weights a rollout needs (a shipped policy: a Diffusion Policy's EMA
+    without its trained copy); such a checkpoint has no optimizer state."""
 
     @property
     def used_seeds(self) -> list[int]:
@@ -63,15 +68,21 @@ class Checkpoint:
 def save_checkpoint(path: str | Path, ckpt: Checkpoint,
                     optimizer: torch.optim.Optimizer | None = None) -> None:
     """Writes ``ckpt`` (with ``optimizer``'s state if given) to ``path`` atomically."""
+    if ckpt.rollout_only:
+        weights, optimizer_state = ckpt.policy.rollout_state_dict(), None
+    else:
+        weights = ckpt.policy.state_dict()
+        optimizer_state = optimizer.state_dict() if optimizer is not None else ckpt.optimizer
     payload = {
         "format": FORMAT, "version": VERSION, "algo": ckpt.config.algo,
         "config": ckpt.config.to_dict(),
         "stats": stats_to_lists(ckpt.stats), "step": int(ckpt.step),
         "best_valid": float(ckpt.best_valid),
-        "model": {k: v.detach().cpu() for k, v in ckpt.policy.state_dict().items()},
-        "optimizer": optimizer.state_dict() if optimizer is not None else ckpt.optimizer,
+        "model": {k: v.detach().cpu() for k, v in weights.items()},
+        "optimizer": optimizer_state,
         "train_seeds": [int(s) for s in ckpt.train_seeds], "data": str(ckpt.data),
         "selection": ckpt.selection, "camera": ckpt.camera,
+        "rollout_only": bool(ckpt.rollout_only),
     }
     buffer = io.BytesIO()
     torch.save(payload, buffer)
@@ -100,9 +111,13 @@ def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
         policy = build_policy(config, stats).to(device)
     except ConfigError as e:
         raise CheckpointError(f"{path}: {e}") from None
-    policy.load_state_dict(payload["model"])
+    rollout_only = bool(payload.get("rollout_only", False))
+    if rollout_only:
+        policy.load_rollout_state_dict(payload["model"])
+    else:
+        policy.load_state_dict(payload["model"])
     policy.eval()
     return Checkpoint(config, stats, policy, payload["step"], payload["best_valid"],
                       payload["optimizer"], list(payload.get("train_seeds", [])),
                       payload.get("data", ""), payload.get("selection", {}),
-                      payload.get("camera", {}))
+                      payload.get("camera", {}), rollout_only)

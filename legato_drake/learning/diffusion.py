@@ -329,6 +329,17 @@ class DiffusionPolicy(PolicyFamily):
         for average, current in zip(self.ema.buffers(), self.net.buffers(), strict=True):
             average.copy_(current)
 
+    def rollout_state_dict(self) -> dict[str, torch.Tensor]:
+        """Without the trained weights ``net``: a rollout runs the EMA copy alone, so a
+        shipped checkpoint is half the size."""
+        return {k: v for k, v in self.state_dict().items() if not k.startswith("net.")}
+
+    def load_rollout_state_dict(self, state: Mapping[str, torch.Tensor]) -> None:
+        """The EMA weights, copied into ``net`` too (where a rollout never reads them)."""
+        trained = {"net." + k[len("ema."):]: v for k, v in state.items()
+                   if k.startswith("ema.")}
+        self.load_state_dict({**state, **trained})
+
     # -- rollout -------------------------------------------------------------------------
 
     def initial_state(self) -> DiffusionState:

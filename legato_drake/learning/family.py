@@ -52,6 +52,16 @@ class PolicyFamily(nn.Module, abc.ABC):
         representation); they are stored in the checkpoint with the others."""
         return {}
 
+    def rollout_state_dict(self) -> dict[str, torch.Tensor]:
+        """The weights a rollout needs: what a shipped (``rollout_only``) checkpoint keeps.
+        By default all of them; a family that trains one copy and runs another (an EMA)
+        leaves the trained one out."""
+        return self.state_dict()
+
+    def load_rollout_state_dict(self, state: Mapping[str, torch.Tensor]) -> None:
+        """Loads what ``rollout_state_dict`` kept (the inverse of it)."""
+        self.load_state_dict(state)
+
     def after_step(self, step: int) -> None:
         """Called by training after each optimizer step (e.g. to update an EMA of the
         weights); ``step`` counts from 1."""

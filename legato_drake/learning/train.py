@@ -201,6 +201,9 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
         if not last.is_file():
             raise ConfigError(f"--resume: no checkpoint {last} to resume from")
         previous = load_checkpoint(last, device)
+        if previous.rollout_only:
+            raise ConfigError(f"--resume: {last} is a shipped (rollout-only) checkpoint "
+                              "without the trained weights; resume from a run's own last.pt")
         raw = previous.config.to_dict()
         if steps is None:
             raw["steps"] = config.steps
