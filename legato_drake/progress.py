@@ -64,13 +64,16 @@ class LogProgress:
         self.close()
 
 
-def progress_bar(iterable: Iterable | None = None, progress: bool | None = None,
+def progress_bar(iterable: Iterable | None = None, progress: bool | str | None = None,
                  **kwargs: object) -> tqdm | LogProgress:
     """``tqdm(iterable, **kwargs)`` on a terminal (or with ``progress=True``), log lines when
-    stderr is not a terminal (``progress=None``), nothing with ``progress=False``."""
+    stderr is not a terminal (``progress=None``) or always (``progress="log"``: work in a
+    worker process, whose bars would garble the driver's), nothing with ``progress=False``."""
     kwargs.pop("disable", None)
     if progress is False:
         return tqdm(iterable, disable=True, **kwargs)
+    if progress == "log":
+        return LogProgress(iterable, **kwargs)
     if progress or sys.stderr.isatty():
         return tqdm(iterable, **kwargs)
     return LogProgress(iterable, **kwargs)

@@ -35,3 +35,15 @@ def test_progress_bar_picks_by_terminal(monkeypatch):
     quiet = progress_bar(range(3), progress=False)
     assert isinstance(quiet, tqdm) and quiet.disable
     assert isinstance(progress_bar(range(3), progress=True), tqdm)
+
+
+def test_log_progress_even_on_a_terminal(monkeypatch):
+    """``progress="log"`` (a worker process's training) logs lines where a bar would show."""
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    monkeypatch.setattr("sys.stderr", Terminal())
+    assert isinstance(progress_bar(range(3)), tqdm)
+    assert isinstance(progress_bar(range(3), progress="log"), LogProgress)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import logging
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -79,6 +80,10 @@ def _train(unit: TrainUnit) -> dict[str, bytes]:
     from legato_drake.learning.train import train
 
     config = config_from_dict({**unit.config, "cpu_threads": unit.threads}, unit.key)
+    if not logging.getLogger().handlers:  # a worker process: its log lines reach stderr
+        logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     with tempfile.TemporaryDirectory(prefix="legato_drake_train_") as folder:
-        train(config, unit.data.path(), folder, device=unit.device, progress=False)
+        # How far an hour-long training is, as a log line a minute (a bar per worker would
+        # garble the driver's).
+        train(config, unit.data.path(), folder, device=unit.device, progress="log")
         return {p.name: p.read_bytes() for p in sorted(Path(folder).iterdir()) if p.is_file()}

@@ -176,7 +176,7 @@ def validation_losses(policy: PolicyFamily, dataset: DemoSequenceDataset,
 
 
 def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int | None = None,
-          device: str = "cpu", resume: bool = False, progress: bool | None = None
+          device: str = "cpu", resume: bool = False, progress: bool | str | None = None
           ) -> Checkpoint:
     """Trains a policy on the demonstrations in ``data``; writes the run into ``out``.
 
@@ -247,7 +247,7 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
     loader = DataLoader(dataset, batch_sampler=sampler, num_workers=config.num_workers,
                         persistent_workers=False)
     bar = progress_bar(progress=progress, total=total_steps, initial=ckpt.step,
-                       desc=f"train {config.name}", unit="step")
+                       desc=f"train {config.name} (seed {config.seed})", unit="step")
     policy.train()
     for batch in loader:
         losses = policy.losses(_to_device(batch, device))
