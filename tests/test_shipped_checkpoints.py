@@ -35,7 +35,8 @@ def test_shipped_checkpoint_runs_a_rollout(path):
     task = path.stem.rsplit("_", 1)[-1]
     scenario = Scenario(embodiment="panda", task=task, controller="policy",
                         checkpoint=str(path), seed=EVAL_SEED0, duration=2.0)
-    scenario.camera.enabled = False
+    # an image policy sees the gripper's cameras; a state policy needs none
+    scenario.camera.enabled = load_checkpoint(path).config.obs_mode == "image"
     result = run_episode(scenario.validate())
     assert result.episode_time == pytest.approx(2.0, abs=0.01)
     assert result.tracking.rms_mm < 10.0  # the Panda follows the policy's targets
