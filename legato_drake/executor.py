@@ -60,6 +60,9 @@ class Executor(ABC):
     """Runs ``function(job)`` for many jobs, at most ``workers`` at a time."""
 
     workers: int = 1
+    shares_files: bool = True
+    """Whether every job runs on this machine, so that a job may keep files in the driver's
+    folders (a training's checkpoints, to resume from after a kill)."""
 
     @abstractmethod
     def stream(self, function: Callable[[Job], Result],
@@ -172,7 +175,9 @@ class RayExecutor(Executor):
             raise ConfigError("--backend ray: Ray is not installed (pip install "
                               "'legato-drake[ray]')") from None
         os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # no network calls
-        if address is None or address.split(":")[0] in ("127.0.0.1", "localhost"):
+        self.shares_files = address is None or \
+            address.split(":")[0] in ("127.0.0.1", "localhost")
+        if self.shares_files:
             # A cluster on this machine: keep every Ray socket on the loopback interface.
             os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
         if address is None:

@@ -5,7 +5,9 @@ worker."""
 from __future__ import annotations
 
 import csv
+import io
 import json
+import logging
 import os
 import re
 import secrets
@@ -18,12 +20,17 @@ import time
 from pathlib import Path
 
 import pytest
+import torch
 
 from legato_drake.errors import ConfigError
+from legato_drake.executor import Blob
 from legato_drake.experiment.grid import load_grid, subset
 from legato_drake.experiment.report import overall_table, task_table
 from legato_drake.experiment.runner import plan_runs
-from legato_drake.experiment.units import unit_key
+from legato_drake.experiment.units import TrainUnit, run_unit, unit_key
+from legato_drake.learning.checkpoint import load_checkpoint
+from legato_drake.learning.train import train
+from tests.learning_helpers import synthetic_dataset, tiny_config
 
 ROOT = Path(__file__).resolve().parents[1]
 SMOKE = ROOT / "configs" / "experiments" / "smoke.yaml"
@@ -175,7 +182,7 @@ def test_local_backend_end_to_end(local_run):
     assert {r["embodiment"] for r in results} == set(grid.evaluation.embodiments)
     assert {int(r["seed"]) for r in results} == {10000, 10001}
     rows = _rows(local_run / "trials.jsonl")
-    (run,) = (local_run / "runs").iterdir()
+    (run,) = (local_run / "runs").iterdir()  # the training's scratch folder is gone
     selection = json.loads((run / "selection.json").read_text())
     assert [c["name"] for c in selection["candidates"]] == ["step_000030.pt", "step_000060.pt"]
     assert sum(r["phase"] == "select" for r in rows.values()) == 2
@@ -191,6 +198,33 @@ def test_local_backend_end_to_end(local_run):
     assert result.returncode == 0, result.stderr
     assert "ran {'datasets': 0, 'trainings': 0, 'trials': 0}" in result.stderr
     assert {p: p.stat().st_mtime_ns for p in before} == before
+
+
+def test_a_killed_training_resumes_from_its_scratch_folder(tmp_path, caplog):
+    """A training unit whose scratch folder holds a checkpoint (its worker was killed after
+    step 10) resumes there and ends with the weights of a training never interrupted; one
+    killed before its first checkpoint starts afresh."""
+    data = Blob.of(synthetic_dataset(tmp_path / "d.hdf5"))
+    config = tiny_config(steps=20)
+    _, whole = run_unit(TrainUnit("k", config.to_dict(), data))
+    killed = tmp_path / "killed"
+    train(config, data.path(), killed, steps=10, progress=False)
+    early = tmp_path / "early"
+    early.mkdir()
+    (early / "log.csv").write_text("step,total\n")
+    for scratch in (killed, early):
+        caplog.clear()
+        with caplog.at_level(logging.INFO, "legato_drake.experiment.units"):
+            _, files = run_unit(TrainUnit("k", config.to_dict(), data, scratch=str(scratch)))
+        assert ("resuming the training" in caplog.text) == (scratch == killed)
+        steps = [row["step"] for row in csv.DictReader(io.StringIO(files["log.csv"].decode()))]
+        assert steps == [str(s) for s in range(1, 21)]
+        (tmp_path / "a.pt").write_bytes(files["last.pt"])
+        (tmp_path / "b.pt").write_bytes(whole["last.pt"])
+        a, b = load_checkpoint(tmp_path / "a.pt"), load_checkpoint(tmp_path / "b.pt")
+        assert a.step == b.step == 20
+        for name, tensor in b.policy.state_dict().items():
+            torch.testing.assert_close(a.policy.state_dict()[name], tensor)
 
 
 def test_killed_driver_resumes_without_loss_or_repeats(local_run, tmp_path):

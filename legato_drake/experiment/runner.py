@@ -6,6 +6,8 @@
     datasets/<task>-<robot>-<key>.hdf5 one per task (``collect``, itself resumable)
     runs/<method>-<task>-seed<s>-<key>/ one per method, task and training seed: the run's
                                        files, selection.json and selected.pt; unit.json last
+    runs/.training/<key>/              a training under way (workers on this machine), until
+                                       its files are in its run folder
     trials.jsonl                       every finished trial (selection and evaluation), one
                                        JSON row per line, appended and flushed as each ends
     results.csv                        the evaluation trials (rewritten atomically)
@@ -16,16 +18,20 @@ holds the trainings, each run's selection trials once its training is there, and
 evaluation trials once its selection is done. A unit is done when its record exists (a
 run's ``unit.json``, a trial's row under its key: the key names the checkpoint's hash, so
 retrained weights are never credited with old trials), so a rerun of a finished grid runs
-nothing, and a killed one resumes: only the units in flight are lost (a training restarts
-from its beginning).
+nothing, and a killed one resumes: only the units in flight are lost. A training in flight
+resumes from its last checkpoint (``checkpoint_every`` steps) where the workers run on this
+machine (the local backend, a Ray cluster on this machine); on a remote Ray node it restarts
+from its beginning.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import logging
 import os
+import shutil
 from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -150,8 +156,12 @@ def _device(grid: Grid, executor: Executor) -> str:
 class _Scheduler:
     """Hands out the jobs that are ready and records what finishes."""
 
-    def __init__(self, grid: Grid, out: Path, runs: list[RunPlan], device: str):
+    def __init__(self, grid: Grid, out: Path, runs: list[RunPlan], device: str,
+                 scratch: Path | None = None):
         self.grid, self.out, self.runs, self.device = grid, out, runs, device
+        self.scratch = scratch
+        """Where trainings keep their checkpoints while they run (None: in the worker's
+        temporary folder, lost with a kill)."""
         self.ledger = TrialLedger(out / "trials.jsonl")
         self.ready: deque = deque()
         self.datasets: dict[Path, Blob] = {}
@@ -174,9 +184,10 @@ class _Scheduler:
             else:
                 if run.data not in self.datasets:
                     self.datasets[run.data] = Blob.of(run.data)  # one copy for all its runs
+                scratch = str(self.scratch / run.key) if self.scratch else ""
                 trainings.append(TrainUnit(run.key, run.config.to_dict(),
                                            self.datasets[run.data],
-                                           self.grid.training.threads, self.device))
+                                           self.grid.training.threads, self.device, scratch))
                 self.by_key[run.key] = (run, None)
         self.ready.extendleft(reversed(trainings))  # trainings first: the longest units
 
@@ -220,6 +231,10 @@ class _Scheduler:
         unit = dict(key=run.key, method=run.method.name, task=run.task, seed=run.seed,
                     data=run.data.name, config=run.config.to_dict())
         atomic_write_text(run.folder / "unit.json", json.dumps(unit, indent=1))
+        if self.scratch is not None:
+            shutil.rmtree(self.scratch / run.key, ignore_errors=True)
+            with contextlib.suppress(OSError):  # another training still under way
+                self.scratch.rmdir()
         log.info("trained %s (%s, seed %d) into %s", run.method.name, run.task, run.seed,
                  run.folder)
 
@@ -322,7 +337,9 @@ def run_experiment(grid: Grid, out: str | Path, executor: Executor,
                 camera=spec.cameras, progress=progress, executor=executor,
                 expert_noise=ExpertNoiseConfig(spec.noise_mm / 1000, spec.noise_deg))
     runs = plan_runs(grid, out)
-    scheduler = _Scheduler(grid, out, runs, _device(grid, executor))
+    # absolute: a Ray worker on this machine runs in a folder of its own
+    scratch = (out / "runs" / ".training").resolve() if executor.shares_files else None
+    scheduler = _Scheduler(grid, out, runs, _device(grid, executor), scratch)
     scheduler.start()
     scheduler.bar = progress_bar(progress=progress, total=scheduler.expected(),
                                  desc=f"experiment {grid.name}", unit="unit")

@@ -9,7 +9,10 @@ only what depends on it.
 Jobs carry the files they need (``Blob``: a dataset, a checkpoint; the Ray backend passes
 them by reference into its object store, ``SharedBlob``) and return what they made
 (a training run's files as bytes, a trial's row), so a worker may be a process here or a Ray
-task on a node that shares no files; the driver alone writes the experiment folder.
+task on a node that shares no files; the driver alone writes the experiment folder. Where
+the workers run on the driver's machine, a training keeps its checkpoints in a scratch folder
+the driver names (``TrainUnit.scratch``), so that a killed one resumes from its last
+checkpoint instead of step 0.
 """
 
 from __future__ import annotations
@@ -18,12 +21,19 @@ import dataclasses
 import hashlib
 import json
 import logging
+import shutil
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from legato_drake.executor import Blob, SharedBlob
 from legato_drake.pipelines.evaluate import TrialJob, run_trial
+
+if TYPE_CHECKING:
+    from legato_drake.learning.config import LearningConfig
+
+log = logging.getLogger(__name__)
 
 
 def unit_key(*parts: object) -> str:
@@ -44,6 +54,10 @@ class TrainUnit:
     data: Blob | SharedBlob
     threads: int = 1
     device: str = "cpu"
+    scratch: str = ""
+    """Where it trains when it runs on the driver's machine, resuming from the ``last.pt``
+    found there (training resumes exactly: the same losses and weights as a run never
+    interrupted); the driver removes it once the run's files are recorded."""
 
     @property
     def resources(self) -> dict:
@@ -77,13 +91,27 @@ def run_unit(unit: TrainUnit | TrialUnit) -> tuple[str, object]:
 
 def _train(unit: TrainUnit) -> dict[str, bytes]:
     from legato_drake.learning.config import config_from_dict
-    from legato_drake.learning.train import train
 
     config = config_from_dict({**unit.config, "cpu_threads": unit.threads}, unit.key)
     if not logging.getLogger().handlers:  # a worker process: its log lines reach stderr
         logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    if unit.scratch:
+        return _train_in(Path(unit.scratch), config, unit)
     with tempfile.TemporaryDirectory(prefix="legato_drake_train_") as folder:
-        # How far an hour-long training is, as a log line a minute (a bar per worker would
-        # garble the driver's).
-        train(config, unit.data.path(), folder, device=unit.device, progress="log")
-        return {p.name: p.read_bytes() for p in sorted(Path(folder).iterdir()) if p.is_file()}
+        return _train_in(Path(folder), config, unit)
+
+
+def _train_in(folder: Path, config: LearningConfig, unit: TrainUnit) -> dict[str, bytes]:
+    """Trains (or resumes) the run in ``folder``; returns its files."""
+    from legato_drake.learning.train import train
+
+    resume = (folder / "last.pt").is_file()
+    if folder.exists() and not resume:
+        shutil.rmtree(folder)  # killed before its first checkpoint: nothing to keep
+    if resume:
+        log.info("resuming the training of %s from %s", unit.key, folder / "last.pt")
+    # How far an hour-long training is, as a log line a minute (a bar per worker would
+    # garble the driver's).
+    train(config, unit.data.path(), folder, device=unit.device, resume=resume,
+          progress="log")
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()}
