@@ -117,8 +117,12 @@ def dataset_stats(path: Path, config: LearningConfig) -> dict[str, dict[str, np.
 
 
 def _to_device(batch: dict, device: str) -> dict:
-    return {"obs": {k: v.to(device) for k, v in batch["obs"].items()},
-            "actions": batch["actions"].to(device), "pad_mask": batch["pad_mask"].to(device)}
+    """The batch on ``device`` (from pinned memory on a GPU: the copy overlaps the step)."""
+    def move(v: torch.Tensor) -> torch.Tensor:
+        return v.to(device, non_blocking=True)
+
+    return {"obs": {k: move(v) for k, v in batch["obs"].items()},
+            "actions": move(batch["actions"]), "pad_mask": move(batch["pad_mask"])}
 
 
 def _read_log(path: Path, upto: int) -> list[dict]:
@@ -245,7 +249,7 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
     sampler = StepBatchSampler(len(dataset), config.batch_size, config.seed, ckpt.step,
                                total_steps)
     loader = DataLoader(dataset, batch_sampler=sampler, num_workers=config.num_workers,
-                        persistent_workers=False)
+                        persistent_workers=False, pin_memory=device.startswith("cuda"))
     bar = progress_bar(progress=progress, total=total_steps, initial=ckpt.step,
                        desc=f"train {config.name} (seed {config.seed})", unit="step")
     policy.train()
