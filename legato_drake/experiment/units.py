@@ -106,10 +106,10 @@ def _train_in(folder: Path, config: LearningConfig, unit: TrainUnit) -> dict[str
     from legato_drake.learning.train import train
 
     resume = (folder / "last.pt").is_file()
-    if folder.exists() and not resume:
-        shutil.rmtree(folder)  # killed before its first checkpoint: nothing to keep
     if resume:
         log.info("resuming the training of %s from %s", unit.key, folder / "last.pt")
+    else:  # a fresh folder, or one killed before its first checkpoint: nothing to keep
+        shutil.rmtree(folder, ignore_errors=True)
     # How far an hour-long training is, as a log line a minute (a bar per worker would
     # garble the driver's).
     train(config, unit.data.path(), folder, device=unit.device, resume=resume,
