@@ -1,4 +1,5 @@
-"""Derived observations: computed from stored ones, the same in the Dataset and at rollout."""
+"""Derived observations: computed from stored ones, the same in the Dataset and at rollout;
+and the planned actions, the targets of action chunks."""
 
 from __future__ import annotations
 
@@ -8,12 +9,13 @@ from pydrake.math import RigidTransform, RollPitchYaw
 from legato_drake.data.derived import (
     available_observations,
     object_in_tcp,
+    planned_actions,
     read_observation,
 )
 from legato_drake.data.synthetic import synthetic_episode
 from legato_drake.data.torch_dataset import DemoSequenceDataset
 from legato_drake.data.writer import write_dataset
-from legato_drake.poses import pose_to_vector
+from legato_drake.poses import apply_delta, pose_delta, pose_to_vector
 
 
 def test_object_in_tcp_matches_drake():
@@ -53,3 +55,39 @@ def test_missing_sources_are_named():
     assert "object_in_tcp" in available_observations(["tcp_measured", "object"])
     assert "object_in_tcp" not in available_observations(["object"])
 
+
+
+def test_planned_actions_are_the_actions_where_the_executed_pose_is_the_target():
+    episode = synthetic_episode(30, images=False)  # commanded poses chain through the actions
+    planned = planned_actions(episode.obs["tcp_commanded"], episode.actions)
+    np.testing.assert_allclose(planned, episode.actions, atol=1e-9)
+
+
+def test_a_chunk_of_planned_actions_reaches_the_targets_of_noisy_actions():
+    """A DART-style expert: it aims at plan pose G_k from where it is (action ``C_k^-1 G_k``),
+    and the executed pose is G_k perturbed. From any step t, the action then the planned
+    actions compose into G_t, G_{t+1}, ...; the actions themselves do not."""
+    rng = np.random.default_rng(3)
+    plan = [RigidTransform(RollPitchYaw(*rng.uniform(-1, 1, 3)), rng.uniform(-1, 1, 3))]
+    for _ in range(24):
+        plan.append(plan[-1] @ RigidTransform(RollPitchYaw(*rng.normal(0, 0.05, 3)),
+                                              rng.normal(0, 0.01, 3)))
+    commanded, actions = [plan[0]], []
+    for k, G in enumerate(plan[1:]):
+        actions.append([*pose_delta(commanded[k], G), k % 2])
+        commanded.append(G @ RigidTransform(RollPitchYaw(*rng.normal(0, 0.03, 3)),
+                                            rng.normal(0, 0.005, 3)))
+    actions = np.array(actions)
+    C = np.array([pose_to_vector(X) for X in commanded[:-1]])
+    planned = planned_actions(C, actions)
+    np.testing.assert_array_equal(planned[:, 6], actions[:, 6])
+    np.testing.assert_allclose(planned[0], actions[0])
+    t = 5
+    chunk = np.concatenate([actions[t:t + 1], planned[t + 1:t + 10]])
+    X, drifted = commanded[t], commanded[t]
+    for j in range(10):
+        X = apply_delta(X, chunk[j, :6])
+        drifted = apply_delta(drifted, actions[t + j, :6])
+        np.testing.assert_allclose(X.GetAsMatrix4(), plan[t + j + 1].GetAsMatrix4(),
+                                   atol=1e-9)
+    assert np.linalg.norm(drifted.translation() - X.translation()) > 0.005

@@ -10,6 +10,7 @@ import torch
 from pydrake.math import RigidTransform, RollPitchYaw
 
 from legato_drake.data.derived import observation_sizes
+from legato_drake.data.torch_dataset import DemoSequenceDataset
 from legato_drake.errors import ConfigError
 from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from legato_drake.learning.diffusion import (
@@ -18,6 +19,7 @@ from legato_drake.learning.diffusion import (
     chunk_windows,
     deltas_to_reltraj,
     reltraj_to_deltas,
+    training_chunks,
 )
 from legato_drake.learning.registry import build_policy
 from legato_drake.learning.train import train
@@ -38,7 +40,8 @@ def dp_config(algo: str = "dp_velocity", **changes):
 def _stats(config, rng):
     stats = {k: {"mean": rng.normal(0, 0.01, d).astype(np.float32),
                  "std": np.full(d, 0.05, np.float32)} for k, d in observation_sizes(3).items()}
-    stats.update(DiffusionPolicy.extra_stats(config, [rng.normal(0, 0.01, (40, 7))]))
+    actions = rng.normal(0, 0.01, (40, 7))
+    stats.update(DiffusionPolicy.extra_stats(config, [actions], [actions]))
     return stats
 
 
@@ -48,7 +51,9 @@ def _batch(rng, B: int = 4):
            for k, d in observation_sizes(3).items()}
     actions = rng.normal(0, 0.01, (B, L, 7))
     actions[..., 6] = rng.integers(0, 2, (B, L))
+    planned = actions + rng.normal(0, 0.003, actions.shape) * [1, 1, 1, 1, 1, 1, 0]
     return {"obs": obs, "actions": torch.tensor(actions, dtype=torch.float32),
+            "planned_actions": torch.tensor(planned, dtype=torch.float32),
             "pad_mask": torch.ones(B, L, dtype=torch.bool)}
 
 
@@ -80,6 +85,27 @@ def test_chunk_windows_pad_past_the_end_like_the_dataset():
     windows = chunk_windows(actions, 3)
     assert windows.shape == (4, 3, 7)
     np.testing.assert_array_equal(windows[-1], np.repeat(actions[-1:], 3, 0))
+    planned = -actions
+    windows = chunk_windows(actions, 3, planned)  # the step's action, then the plan
+    np.testing.assert_array_equal(windows[1], [actions[1], planned[2], planned[3]])
+    np.testing.assert_array_equal(windows[-1], [actions[-1], planned[-1], planned[-1]])
+
+
+@pytest.mark.parametrize("targets", ["planned", "actions"])
+def test_training_chunks_of_a_batch_are_the_chunk_windows_of_its_demo(tmp_path, targets):
+    """The statistics (``chunk_windows``) and the loss (``training_chunks``) see the same
+    chunks, padding included."""
+    path = synthetic_dataset(tmp_path / "d.hdf5", demos=2, length=12, images=False)
+    data = DemoSequenceDataset(path, ["fingers"], P + 1, "all")
+    arrays = data._data[data.demos[0]]
+    planned = arrays["planned_actions"] + 0.01  # as if the demo were noisy
+    windows = chunk_windows(arrays["actions"], P, planned if targets == "planned" else None)
+    for start in (0, 5, 11):
+        item = data[start]
+        batch = {"actions": item["actions"][None],
+                 "planned_actions": item["planned_actions"][None] + 0.01}
+        chunk = training_chunks(batch, 0, P, targets)[0].numpy()
+        np.testing.assert_allclose(chunk, windows[start], atol=1e-7)
 
 
 @pytest.mark.parametrize("algo", ["dp_velocity", "dp_reltraj"])
@@ -96,7 +122,7 @@ def test_the_chunk_invariant_loss_is_zero_on_the_demonstration_and_trains_the_ne
     assert any(g is not None and g.abs().sum() > 0 for g in grads)
 
     # A network that predicts the true noise implies the demonstrated chunk exactly.
-    x0 = policy._scale(batch["actions"][:, 1:1 + P])
+    x0 = policy._scale(training_chunks(batch, 1, P, "planned"))
     alphas = policy.train_scheduler.alphas_cumprod
 
     class Oracle(torch.nn.Module):

@@ -2,8 +2,12 @@
 
 Item ``i`` is a window of ``seq_length`` consecutive samples of one demo::
 
-    {"obs": {key: tensor (L, ...)}, "actions": (L, 7) float32, "rewards": (L,) float32,
-     "dones": (L,) float32, "pad_mask": (L,) bool, "demo": str, "start": int}
+    {"obs": {key: tensor (L, ...)}, "actions": (L, 7) float32, "planned_actions": (L, 7),
+     "rewards": (L,) float32, "dones": (L,) float32, "pad_mask": (L,) bool, "demo": str,
+     "start": int}
+
+``planned_actions`` (``data.derived.planned_actions``) are the motion between the poses the
+actions aim at: the targets of action chunks.
 
 Windows start at every step of every demo in the split. With ``pad_seq_length`` (default, as
 robomimic) a window that runs past the end of its demo is padded by repeating the last sample
@@ -31,7 +35,11 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
-from legato_drake.data.derived import available_observations, read_observation
+from legato_drake.data.derived import (
+    available_observations,
+    planned_actions,
+    read_observation,
+)
 from legato_drake.data.layout import (
     IMAGE_KEYS,
     POLICY_OBS_KEYS,
@@ -108,6 +116,8 @@ class DemoSequenceDataset(Dataset):
                         f"available: {', '.join(sorted(available))}")
                 arrays = {key: demo[key][()].astype(np.float32)
                           for key in ("actions", "rewards", "dones")}
+                arrays["planned_actions"] = planned_actions(
+                    demo["obs"]["tcp_commanded"][()], demo["actions"][()]).astype(np.float32)
                 for key in self._low_dim_keys:
                     arrays[f"obs/{key}"] = read_observation(demo["obs"], key).astype(np.float32)
                 if cache_images:
@@ -158,6 +168,7 @@ class DemoSequenceDataset(Dataset):
         return {
             "obs": obs,
             "actions": torch.from_numpy(arrays["actions"][start:stop][steps]),
+            "planned_actions": torch.from_numpy(arrays["planned_actions"][start:stop][steps]),
             "rewards": torch.from_numpy(arrays["rewards"][start:stop][steps]),
             "dones": torch.from_numpy(arrays["dones"][start:stop][steps]),
             "pad_mask": torch.from_numpy(np.arange(start, start + self.seq_length) < T),

@@ -22,6 +22,8 @@ OBS_MODES = ("image", "state")
 ENCODERS = ("resnet18", "small")
 PRECISIONS = ("float32", "bfloat16")
 """``encoder_precision``'s values."""
+CHUNK_TARGETS = ("planned", "actions")
+"""``chunk_targets``' values."""
 STATE_KEYS = ("tcp_commanded", "tcp_measured", "object", "object_in_tcp", "fingers")
 """Privileged observations a ``state`` policy may use: what the EpisodeRecorder records and
 what ``data.derived`` computes from it."""
@@ -107,6 +109,12 @@ class LearningConfig:
     ``obs_horizon - 1 + pred_horizon`` (a training window holds both)."""
     action_horizon: int = 8
     """Diffusion Policy: actions of each prediction executed before the next (k <= P)."""
+    chunk_targets: str = "planned"
+    """Diffusion Policy: what a training chunk of P actions from step t is. ``planned``: the
+    step's action, then the motion between the poses the next actions aim at
+    (``data.derived.planned_actions``: the expert's plan from where it is); ``actions``: the
+    recorded actions themselves, which in DART-noised demos correct perturbations still to
+    come, so their composition drifts from the plan (14 mm after 8 steps on the lid demos)."""
     unet_dims: list[int] = field(default_factory=lambda: [64, 128, 256])
     """Diffusion Policy: channels of the temporal U-Net's levels (each halves the time axis
     but the last)."""
@@ -157,9 +165,11 @@ class LearningConfig:
                      "unet_kernel", "diffusion_steps", "inference_steps"):
             if getattr(self, name) < 1:
                 raise bad(name, f"must be a positive integer, got {getattr(self, name)}")
-        if self.encoder_precision not in PRECISIONS:
-            raise bad("encoder_precision", f"must be one of {', '.join(PRECISIONS)}; got "
-                                           f"{self.encoder_precision!r}")
+        for name, allowed in (("encoder_precision", PRECISIONS),
+                              ("chunk_targets", CHUNK_TARGETS)):
+            if getattr(self, name) not in allowed:
+                raise bad(name, f"must be one of {', '.join(allowed)}; got "
+                                f"{getattr(self, name)!r}")
         if self.image_crop != 0 and not 8 <= self.image_crop <= 128:
             raise bad("image_crop", f"must be 0 (no crop) or 8-128 pixels, got "
                                     f"{self.image_crop}")

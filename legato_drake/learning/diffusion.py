@@ -12,7 +12,11 @@ As Diffusion Policy (Chi et al. 2023) does it, written for this project:
   ``diffusion_steps``), the L2 loss on the noise; rollout: DDIM (``diffusers.DDIMScheduler``,
   ``inference_steps``, deterministic); both use an EMA of the weights (``ema_decay``);
 * chunk actions are scaled to [-1, 1] by their per-dimension range in the training data
-  (``extra_stats``, stored in the checkpoint).
+  (``extra_stats``, stored in the checkpoint);
+* a training chunk is the expert's plan from its first step (``chunk_targets: planned``,
+  ``training_chunks``): that step's action, then the motion between the poses the next
+  actions aim at. In DART-noised demos the recorded actions also correct perturbations that
+  have not happened yet at the chunk's start, which the network cannot know.
 
 Two action representations (SPEC §8):
 
@@ -91,11 +95,25 @@ def reltraj_to_deltas(reltraj: torch.Tensor | np.ndarray) -> torch.Tensor | np.n
     return xp.concatenate([deltas, reltraj[..., 6:7]], -1)
 
 
-def chunk_windows(actions: np.ndarray, length: int) -> np.ndarray:
-    """Every window of ``length`` consecutive actions of one demo (T, 7) -> (T, length, 7),
-    those past the end padded with the last action (as the training dataset pads)."""
-    padded = np.concatenate([actions, np.repeat(actions[-1:], length - 1, 0)])
-    return np.stack([padded[i:i + length] for i in range(len(actions))])
+def chunk_windows(actions: np.ndarray, length: int, planned: np.ndarray | None = None
+                  ) -> np.ndarray:
+    """Every training chunk of ``length`` steps of one demo (T, 7) -> (T, length, 7), those
+    past the end padded with the last step (as the training dataset pads): with ``planned``
+    (``data.derived.planned_actions``) each starts with its step's action and goes on with
+    the planned ones (``chunk_targets: planned``), without it the actions alone."""
+    follow = actions if planned is None else planned
+    padded = np.concatenate([follow, np.repeat(follow[-1:], length - 1, 0)])
+    return np.stack([np.concatenate([actions[i:i + 1], padded[i + 1:i + length]])
+                     for i in range(len(actions))])
+
+
+def training_chunks(batch: Mapping, start: int, length: int, targets: str) -> torch.Tensor:
+    """The training chunks (B, length, 7) of a batch of windows from step ``start`` on:
+    ``chunk_windows``' rule on tensors (``targets``: the config's ``chunk_targets``)."""
+    actions = batch["actions"][:, start:start + length]
+    if targets == "actions":
+        return actions
+    return torch.cat([actions[:, :1], batch["planned_actions"][:, start + 1:start + length]], 1)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -262,12 +280,15 @@ class DiffusionPolicy(PolicyFamily):
     # -- statistics and representations --------------------------------------------------
 
     @classmethod
-    def extra_stats(cls, config: LearningConfig, actions: list[np.ndarray]
-                    ) -> dict[str, dict[str, np.ndarray]]:
+    def extra_stats(cls, config: LearningConfig, actions: list[np.ndarray],
+                    planned: list[np.ndarray]) -> dict[str, dict[str, np.ndarray]]:
         """The range of the chunk representation: per dimension (velocity), or per chunk
         step and dimension (relative trajectory, whose range grows along the chunk)."""
-        chunks = np.concatenate([chunk_windows(np.asarray(a, np.float64), config.pred_horizon)
-                                 for a in actions])
+        use_plan = config.chunk_targets == "planned"
+        chunks = np.concatenate([
+            chunk_windows(np.asarray(a, np.float64), config.pred_horizon,
+                          np.asarray(p, np.float64) if use_plan else None)
+            for a, p in zip(actions, planned, strict=True)])
         if REPRESENTATIONS.get(config.algo) == "reltraj":
             values = deltas_to_reltraj(chunks).reshape(len(chunks), -1)
         else:
@@ -298,7 +319,7 @@ class DiffusionPolicy(PolicyFamily):
         net = self.net if self.training else self.ema
         To, P = cfg.obs_horizon, cfg.pred_horizon
         obs = {k: v[:, :To] for k, v in batch["obs"].items()}
-        chunk = batch["actions"][:, To - 1:To - 1 + P]
+        chunk = training_chunks(batch, To - 1, P, cfg.chunk_targets)
         mask = batch["pad_mask"][:, To - 1:To - 1 + P].to(chunk.dtype)
         x0 = self._scale(chunk)
         generator = self._generator()

@@ -45,11 +45,12 @@ class PolicyFamily(nn.Module, abc.ABC):
         self.config = config
 
     @classmethod
-    def extra_stats(cls, config: LearningConfig, actions: list[np.ndarray]
-                    ) -> dict[str, dict[str, np.ndarray]]:
+    def extra_stats(cls, config: LearningConfig, actions: list[np.ndarray],
+                    planned: list[np.ndarray]) -> dict[str, dict[str, np.ndarray]]:
         """Statistics the family needs beyond the observations' and actions' mean and std,
-        from the training demos' (T, 7) action arrays (e.g. the range of its own action
-        representation); they are stored in the checkpoint with the others."""
+        from the training demos' (T, 7) action arrays and their planned actions
+        (``data.derived.planned_actions``), e.g. the range of its own action representation;
+        they are stored in the checkpoint with the others."""
         return {}
 
     def rollout_state_dict(self) -> dict[str, torch.Tensor]:
@@ -75,7 +76,8 @@ class PolicyFamily(nn.Module, abc.ABC):
     @abc.abstractmethod
     def losses(self, batch: Mapping) -> dict[str, torch.Tensor]:
         """The loss terms (``loss_terms``) of a collated batch of ``DemoSequenceDataset``
-        items: ``obs`` (B, T, ...), ``actions`` (B, T, 7), ``pad_mask`` (B, T)."""
+        items: ``obs`` (B, T, ...), ``actions`` and ``planned_actions`` (B, T, 7),
+        ``pad_mask`` (B, T)."""
 
     @abc.abstractmethod
     def initial_state(self) -> object:

@@ -43,13 +43,15 @@ def check_algo(algo: str, where: str = "") -> None:
                           f"{', '.join(FAMILIES)}")
 
 
-def extra_stats(config: LearningConfig, actions: list[np.ndarray]
-                ) -> dict[str, dict[str, np.ndarray]]:
+def extra_stats(config: LearningConfig, actions: list[np.ndarray],
+                planned: list[np.ndarray] | None = None) -> dict[str, dict[str, np.ndarray]]:
     """The statistics ``config.algo``'s family computes for itself from the training demos'
-    actions (``PolicyFamily.extra_stats``; none for a builder without it)."""
+    actions and planned actions (``PolicyFamily.extra_stats``; none for a builder without
+    it). Without ``planned`` the actions are their own plan (demos without expert noise)."""
     check_algo(config.algo)
     compute = getattr(FAMILIES[config.algo], "extra_stats", None)
-    return compute(config, actions) if compute is not None else {}
+    return compute(config, actions, planned if planned is not None else actions) \
+        if compute is not None else {}
 
 
 def build_policy(config: LearningConfig, stats: Stats) -> PolicyFamily:

@@ -34,7 +34,7 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader, Sampler
 
-from legato_drake.data.derived import available_observations, read_observation
+from legato_drake.data.derived import available_observations, planned_actions, read_observation
 from legato_drake.data.layout import DatasetError, open_dataset, recorded_camera, sorted_demos
 from legato_drake.data.torch_dataset import DemoSequenceDataset
 from legato_drake.errors import ConfigError
@@ -111,8 +111,10 @@ def dataset_stats(path: Path, config: LearningConfig) -> dict[str, dict[str, np.
         stats = {k: compute_stats([read_observation(f["data"][n]["obs"], k) for n in names],
                                   OBS_MIN_STD) for k in keys}
         actions = [f["data"][n]["actions"][()] for n in names]
+        planned = [planned_actions(f["data"][n]["obs"]["tcp_commanded"][()], a)
+                   for n, a in zip(names, actions, strict=True)]
         stats["actions"] = compute_stats(actions)
-    stats.update(extra_stats(config, actions))
+    stats.update(extra_stats(config, actions, planned))
     return stats
 
 
@@ -122,7 +124,7 @@ def _to_device(batch: dict, device: str) -> dict:
         return v.to(device, non_blocking=True)
 
     return {"obs": {k: move(v) for k, v in batch["obs"].items()},
-            "actions": move(batch["actions"]), "pad_mask": move(batch["pad_mask"])}
+            **{k: move(batch[k]) for k in ("actions", "planned_actions", "pad_mask")}}
 
 
 def _read_log(path: Path, upto: int) -> list[dict]:
