@@ -56,7 +56,6 @@ def test_missing_sources_are_named():
     assert "object_in_tcp" not in available_observations(["object"])
 
 
-
 def test_planned_actions_are_the_actions_where_the_executed_pose_is_the_target():
     episode = synthetic_episode(30, images=False)  # commanded poses chain through the actions
     planned = planned_actions(episode.obs["tcp_commanded"], episode.actions)
