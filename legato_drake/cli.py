@@ -409,7 +409,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         doc = evaluate(args.checkpoint, _names(args.embodiments, EMBODIMENTS, "embodiment"),
                        _names(args.tasks, TASKS, "task"), trials, out,
                        workers=args.workers, replays=args.replays, method=args.method,
-                       seed0=seed0, duration=args.duration, overwrite=args.overwrite)
+                       seed0=seed0, duration=args.duration, overwrite=args.overwrite,
+                       overrides=args.set)
         trials = doc["trials"]
         png = plot_success(trials, out / f"{doc['method']}.png")
         log.info("wrote %s", results_path(out, doc["method"]))
@@ -678,10 +679,14 @@ def build_parser() -> argparse.ArgumentParser:
                           help="seconds per trial after homing (default: 40)")
     evaluate.add_argument("--plot", nargs="+", metavar="JSON",
                           help="only combine these results files into one plot and table")
+    evaluate.add_argument("--set", action="append", metavar="FIELD=VALUE",
+                          help="how the policy acts (repeatable): action_horizon (steps "
+                               "executed per chunk) or inference_steps (DDIM steps), e.g. "
+                               "inference_steps=3; the trials run a copy of the checkpoint")
     evaluate.add_argument("--overwrite", action="store_true",
                           help="start OUT/<method>.json afresh; without it, a results file "
-                               "of another checkpoint, --duration, --seed0 or trial set is "
-                               "refused")
+                               "of another checkpoint, --duration, --seed0, --set or trial "
+                               "set is refused")
     evaluate.set_defaults(func=cmd_evaluate)
     export = verbs.add_parser(
         "export", help="a dataset in LeRobot's v3.0 layout, or for robomimic's image path",

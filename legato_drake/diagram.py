@@ -218,6 +218,7 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
                     ik.get_desired_pose_input_port())
     builder.Connect(integrator.GetOutputPort("V_WG_target"),
                     ik.get_desired_velocity_input_port())
+    builder.Connect(state, ik.get_plant_state_input_port())
     desired = ik.GetOutputPort("desired_state")
     if robot.embodiment.leg_follower is not None:  # e.g. Spot's legs follow the body
         joints, followers = add_leg_follower(builder, plant, robot, desired)

@@ -53,6 +53,12 @@ class IkSettings:
     """Joint speed bound (rad/s or m/s), applied to every controlled joint."""
     max_joint_acceleration: float = 100.0
     """Joint acceleration bound (rad/s^2 or m/s^2) between two IK steps."""
+    max_following_error: float = 0.1
+    """How far (rad or m) a commanded joint position may lead the measured one: the IK's
+    integrator stops there (anti-windup). Tracking is 0.001-0.007 on every robot; only a
+    robot blocked by contact gets near, and without the bound a gripper pressed into the
+    table for seconds wound its targets 2 rad ahead and, once it slipped free, the arm
+    swung at 60 rad/s (20 times its speed limit) and threw the lid off the table."""
     joint_speed_limits: dict[str, float] = field(default_factory=dict)
     """Per-joint speed bounds that override ``max_joint_speed``."""
     joint_acceleration_limits: dict[str, float] = field(default_factory=dict)

@@ -108,6 +108,36 @@ def test_a_changed_checkpoint_or_duration_is_not_mixed_in(tmp_path, checkpoint, 
         evaluate(ckpt, ["abstract"], ["lid"], 2, out, duration=5.0, progress=False)
 
 
+def test_rollout_settings_change_a_copy_and_are_not_mixed_in(tmp_path, checkpoint,
+                                                              monkeypatch):
+    """``--set inference_steps=3``: the trials run a copy of the checkpoint with that setting
+    (the weights unchanged), the results file records it, a rerun with other settings is
+    refused, and a training field cannot be set at evaluation."""
+    from legato_drake.learning.checkpoint import load_checkpoint
+
+    seen = []
+
+    def trial(job: TrialJob) -> dict:
+        seen.append(load_checkpoint(job.scenario.checkpoint).config.inference_steps)
+        return _fake_trial(job)
+
+    monkeypatch.setattr(evaluation, "run_trial", trial)
+    doc = evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False,
+                   overrides=["inference_steps=3", "action_horizon=2"])
+    assert seen == [3] and doc["rollout"] == {"action_horizon": 2, "inference_steps": 3}
+    frozen, trained = load_checkpoint(tmp_path / "tiny.pt"), load_checkpoint(checkpoint)
+    assert frozen.config.action_horizon == 2 and trained.config.inference_steps != 3
+    for name, tensor in trained.policy.state_dict().items():
+        assert np.array_equal(frozen.policy.state_dict()[name].numpy(), tensor.numpy())
+    with pytest.raises(ConfigError, match="--set"):
+        evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False,
+                 overrides=["inference_steps=5", "action_horizon=2"])
+    with pytest.raises(ConfigError, match="'lr=0.1'.*action_horizon, inference_steps"):
+        evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path / "other", progress=False,
+                 overrides=["lr=0.1"])
+    assert not (tmp_path / "other").exists()
+
+
 def test_a_trial_that_raises_is_a_recorded_failure(tmp_path, checkpoint, monkeypatch):
     def boom(scenario, html=None):
         raise RuntimeError("the solver diverged")

@@ -5,6 +5,7 @@ worker."""
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 import logging
@@ -26,7 +27,7 @@ from legato_drake.errors import ConfigError
 from legato_drake.executor import Blob
 from legato_drake.experiment.grid import load_grid, subset
 from legato_drake.experiment.report import overall_table, task_table
-from legato_drake.experiment.runner import plan_runs
+from legato_drake.experiment.runner import plan_runs, trained_runs, training_key
 from legato_drake.experiment.units import TrainUnit, run_unit, unit_key
 from legato_drake.learning.checkpoint import load_checkpoint
 from legato_drake.learning.train import train
@@ -146,6 +147,27 @@ def test_unit_keys_follow_their_inputs(tmp_path):
         [("b", 1, before["b", 1])]
 
 
+def test_training_keys_leave_out_the_rollout_fields_alone(tmp_path):
+    """Configs that differ in ``ROLLOUT_FIELDS`` alone share a training key, any other field
+    does not; a finished run is found by the config its ``unit.json`` records, so a run of
+    an older format (a field missing) matches no current config."""
+    config = tiny_config()
+    recorded = config.to_dict()
+    older = {k: v for k, v in recorded.items() if k != "chunk_targets"}
+    for name, fields in (("current", recorded), ("older", older)):
+        (tmp_path / "runs" / name).mkdir(parents=True)
+        (tmp_path / "runs" / name / "unit.json").write_text(
+            json.dumps({"data": "d.hdf5", "config": fields}))
+    found = trained_runs(tmp_path)
+    assert len(found) == 2
+    acting = dataclasses.replace(config, action_horizon=2, inference_steps=3)
+    assert found[training_key("d.hdf5", acting)].name == "current"
+    for changed in (dataclasses.replace(config, lr=config.lr * 2),
+                    dataclasses.replace(config, chunk_targets="actions")):
+        assert training_key("d.hdf5", changed) not in found
+    assert training_key("e.hdf5", acting) not in found
+
+
 def test_tables_mean_range_and_pooled_interval():
     rows = [dict(method="m", train_seed=s, embodiment=e, task="lid", success=ok)
             for s, e, successes in [(0, "abstract", 4), (1, "abstract", 2),
@@ -254,6 +276,45 @@ def test_killed_driver_resumes_without_loss_or_repeats(local_run, tmp_path):
     lines = ledger.read_text().splitlines()
     assert lines[:len(kept)] == kept and len(lines) == 6
     assert _rows(ledger) == _rows(local_run / "trials.jsonl")
+
+
+def test_a_run_differing_in_rollout_settings_alone_shares_the_training(local_run, tmp_path):
+    """A method that differs from a finished run only in ``ROLLOUT_FIELDS`` is not trained
+    again: its run folder holds the finished run's weights and log, with its own rollout
+    settings in every checkpoint and its config, and its trials run (on those
+    checkpoints); two such methods in one grid train once."""
+    out = tmp_path / "shared"
+    shutil.copytree(local_run, out)
+    text = SMOKE.read_text()
+    overrides = "overrides: [steps=60"
+    assert overrides in text
+    grid = _grid(tmp_path, text.replace(overrides, "overrides: [action_horizon=3, steps=60"))
+    result = _cli("experiment", str(grid), "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    assert "ran {'datasets': 0, 'trainings': 0, 'trials': 6}" in result.stderr
+    (trained,) = [p for p in (local_run / "runs").iterdir()]
+    (shared,) = [p for p in (out / "runs").iterdir() if p.name != trained.name]
+    assert (shared / "log.csv").read_bytes() == (trained / "log.csv").read_bytes()
+    assert "action_horizon: 3" in (shared / "config.yaml").read_text()
+    for name in ("step_000030.pt", "step_000060.pt", "last.pt", "selected.pt"):
+        a, b = load_checkpoint(trained / name), load_checkpoint(shared / name)
+        assert (a.config.action_horizon, b.config.action_horizon) == (8, 3)
+        assert training_key("d", a.config) == training_key("d", b.config) and a.step == b.step
+        for key, tensor in a.policy.state_dict().items():
+            assert torch.equal(b.policy.state_dict()[key], tensor)
+
+    # Two methods that share a training, in a fresh folder: one training, two run folders.
+    both = tmp_path / "both"
+    shutil.copytree(local_run / "datasets", both / "datasets")
+    twice = text.replace("methods:\n", "methods:\n  - name: k3\n    config: "
+                         "legato_small_state.yaml\n    overrides: [action_horizon=3, "
+                         "steps=60, valid_every=30, checkpoint_every=30, batch_size=8, "
+                         "seq_length=4]\n")
+    result = _cli("experiment", str(_grid(tmp_path, twice)), "--out", str(both), "--workers",
+                  "2")
+    assert result.returncode == 0, result.stderr
+    assert "'trainings': 1," in result.stderr.split("ran ")[-1]
+    assert sorted(p.name.split("-")[0] for p in (both / "runs").iterdir()) == ["k3", "legato"]
 
 
 def _free_port() -> int:

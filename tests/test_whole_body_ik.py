@@ -16,13 +16,15 @@ def _ik(plant_tuple):
     return WholeBodyIK(plant, robot)
 
 
-def _run(ik, X_des, t, V=None, q0=None):
+def _run(ik, X_des, t, V=None, q0=None, plant_state=None):
     V = np.zeros(6) if V is None else V
     context = ik.CreateDefaultContext()
     if q0 is not None:
         ik.set_joint_positions(context, q0)
     ik.get_desired_pose_input_port().FixValue(context, X_des)
     ik.get_desired_velocity_input_port().FixValue(context, V)
+    if plant_state is not None:
+        ik.get_plant_state_input_port().FixValue(context, plant_state)
     q_history = []
     simulator = Simulator(ik, context)
     for t_k in np.arange(0.005, t, 0.05):  # sample between IK events
@@ -63,6 +65,24 @@ def test_speed_and_acceleration_limits_hold(panda_plant):
     _, _, history = _run(ik, X_des, 1.0)
     v = np.diff(history, axis=0) / 0.05
     assert np.all(np.abs(v) <= ik._v_max + 1e-9)
+
+
+def test_a_blocked_robot_does_not_wind_its_targets_up(panda_plant):
+    """With the plant's state connected, the commanded positions stay within
+    ``max_following_error`` of the measured ones (a robot held at home while the target is
+    40 cm away); without it they integrate open loop to the target."""
+    plant = panda_plant[0]
+    ik = _ik(panda_plant)
+    X0 = ik.tcp_pose(ik._q_home)
+    X_des = RigidTransform(X0.translation() + [0.0, 0.2, -0.35])
+    held = np.zeros(plant.num_multibody_states())
+    held[ik._q_index] = ik._q_home
+    q, _, history = _run(ik, X_des, 1.0, plant_state=held)
+    bound = ik._settings.max_following_error
+    assert np.abs(history - ik._q_home).max() <= bound + 1e-12
+    assert np.abs(q - ik._q_home).max() == pytest.approx(bound)  # it pushes, at the bound
+    free, _, _ = _run(ik, X_des, 1.0)
+    assert np.abs(free - ik._q_home).max() > 3 * bound
 
 
 def test_nan_target_holds_still(panda_plant):

@@ -6,6 +6,9 @@
     datasets/<task>-<robot>-<key>.hdf5 one per task (``collect``, itself resumable)
     runs/<method>-<task>-seed<s>-<key>/ one per method, task and training seed: the run's
                                        files, selection.json and selected.pt; unit.json last
+                                       (runs that differ in ``ROLLOUT_FIELDS`` alone share
+                                       one training: the others get copies of its files
+                                       with their own rollout settings written in)
     runs/.training/<key>/              a training under way (workers on this machine), until
                                        its files are in its run folder
     trials.jsonl                       every finished trial (selection and evaluation), one
@@ -32,6 +35,7 @@ import json
 import logging
 import os
 import shutil
+import tempfile
 from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -42,7 +46,13 @@ from legato_drake.executor import Blob, Executor, RayExecutor
 from legato_drake.experiment.grid import Grid, MethodSpec, grid_dict
 from legato_drake.experiment.units import TrainUnit, TrialUnit, run_unit, unit_key
 from legato_drake.files import atomic_write_bytes, atomic_write_csv, atomic_write_text
-from legato_drake.learning.config import LearningConfig
+from legato_drake.learning.checkpoint import with_rollout_settings
+from legato_drake.learning.config import (
+    ROLLOUT_FIELDS,
+    LearningConfig,
+    load_config,
+    save_config,
+)
 from legato_drake.pipelines.collect import collect
 from legato_drake.pipelines.evaluate import TrialJob, trial_order, trial_scenario
 from legato_drake.pipelines.selection import candidates, write_selection
@@ -71,6 +81,12 @@ class RunPlan:
     """Candidate checkpoint name -> the keys of its selection trials."""
     pending: set[str] = field(default_factory=set)
     """Keys of its selection trials not yet finished."""
+
+    @property
+    def training_key(self) -> str:
+        """What its weights depend on: its dataset and config but the ``ROLLOUT_FIELDS``
+        (runs that share it share one training)."""
+        return training_key(self.data.name, self.config)
 
     @property
     def done(self) -> bool:
@@ -143,6 +159,56 @@ def plan_runs(grid: Grid, out: Path) -> list[RunPlan]:
     return runs
 
 
+def training_key(data: str, config: LearningConfig | dict) -> str:
+    """The key of the training of ``config`` (or a config's ``to_dict``, as a run folder's
+    ``unit.json`` records it) on the dataset named ``data``."""
+    fields = config if isinstance(config, dict) else config.to_dict()
+    return unit_key("training", data,
+                    {k: v for k, v in fields.items() if k not in ROLLOUT_FIELDS})
+
+
+def trained_runs(out: Path) -> dict[str, Path]:
+    """The finished run folders under ``out/runs``, by their training key (from the config
+    as recorded: a run of an older config format, without a field added since, shares
+    nothing, although the field's default may be what it meant)."""
+    found = {}
+    for unit in sorted((out / "runs").glob("*/unit.json")):
+        record = json.loads(unit.read_text())
+        found.setdefault(training_key(record["data"], record["config"]), unit.parent)
+    return found
+
+
+RUN_FILES = ("*.pt", "config.yaml", "log.csv")
+"""What a training leaves in its run folder (``selected.pt``, ``selection.json`` and
+``unit.json`` are the grid's)."""
+
+
+def copy_training(src: Path, dst: Path, config: LearningConfig) -> dict[str, bytes]:
+    """The files of the finished run ``src`` for a run of ``config`` that differs from it
+    only in ``ROLLOUT_FIELDS``: its checkpoints with ``config``'s rollout settings written
+    in (``with_rollout_settings``), its config likewise, its log as it is."""
+    files = {}
+    with tempfile.TemporaryDirectory(prefix="legato_drake_copy_") as tmp:
+        for pattern in RUN_FILES:
+            for path in sorted(src.glob(pattern)):
+                if path.name == "selected.pt":
+                    continue
+                if path.suffix == ".pt":
+                    with_rollout_settings(path, Path(tmp) / path.name, config)
+                    files[path.name] = (Path(tmp) / path.name).read_bytes()
+                elif path.name == "config.yaml":
+                    trained = load_config(path)
+                    save_config(dataclasses.replace(trained, **{
+                        name: getattr(config, name) for name in ROLLOUT_FIELDS}),
+                        Path(tmp) / path.name)
+                    files[path.name] = (Path(tmp) / path.name).read_bytes()
+                else:
+                    files[path.name] = path.read_bytes()
+    log.info("%s: the training of %s, with its rollout settings (%s)", dst.name, src.name,
+             ", ".join(f"{n}={getattr(config, n)}" for n in ROLLOUT_FIELDS))
+    return files
+
+
 def _device(grid: Grid, executor: Executor) -> str:
     if grid.training.device != "auto":
         return grid.training.device
@@ -170,18 +236,29 @@ class _Scheduler:
         training)."""
         self.eval_keys: list[str] = []
         """The keys of the grid's evaluation trials (known once each run is selected)."""
+        self.sharing: dict[str, list[RunPlan]] = {}
+        """Training key -> the runs waiting for the training under way with that key."""
         self.ran = {"trainings": 0, "trials": 0}
         self.skipped = {"trainings": 0, "trials": 0}
         self.bar = None
 
     def start(self) -> None:
-        """Queues what can start: the trainings not done, the trials of the runs that are."""
+        """Queues what can start: the trainings not done, the trials of the runs that are.
+        A run whose training another run shares (they differ in ``ROLLOUT_FIELDS`` alone)
+        takes that run's files instead of training, now if it is finished, else once it
+        is."""
         trainings = []
+        trained = trained_runs(self.out)
         for run in self.runs:
             if run.done:
                 self.skipped["trainings"] += 1
                 self._after_training(run)
+            elif run.training_key in trained:
+                self._share_training(trained[run.training_key], run)
+            elif run.training_key in self.sharing:
+                self.sharing[run.training_key].append(run)
             else:
+                self.sharing[run.training_key] = []
                 if run.data not in self.datasets:
                     self.datasets[run.data] = Blob.of(run.data)  # one copy for all its runs
                 scratch = str(self.scratch / run.key) if self.scratch else ""
@@ -220,10 +297,19 @@ class _Scheduler:
                     self._after_selection(run)
         else:
             self._write_run(run, result)
+            log.info("trained %s (%s, seed %d) into %s", run.method.name, run.task, run.seed,
+                     run.folder)
             self.ran["trainings"] += 1
             self._after_training(run)
+            for other in self.sharing.pop(run.training_key, []):
+                self._share_training(run.folder, other)
         if self.bar is not None:
             self.bar.update(1)
+
+    def _share_training(self, src: Path, run: RunPlan) -> None:
+        self._write_run(run, copy_training(src, run.folder, run.config))
+        self.skipped["trainings"] += 1
+        self._after_training(run)
 
     def _write_run(self, run: RunPlan, files: dict[str, bytes]) -> None:
         for name, data in files.items():
@@ -235,8 +321,6 @@ class _Scheduler:
             shutil.rmtree(self.scratch / run.key, ignore_errors=True)
             with contextlib.suppress(OSError):  # another training still under way
                 self.scratch.rmdir()
-        log.info("trained %s (%s, seed %d) into %s", run.method.name, run.task, run.seed,
-                 run.folder)
 
     def _after_training(self, run: RunPlan) -> None:
         selection = self.grid.selection

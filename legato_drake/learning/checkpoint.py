@@ -23,7 +23,7 @@ import torch
 
 from legato_drake.errors import ConfigError, LegatoError
 from legato_drake.files import atomic_write_bytes
-from legato_drake.learning.config import LearningConfig, config_from_dict
+from legato_drake.learning.config import ROLLOUT_FIELDS, LearningConfig, config_from_dict
 from legato_drake.learning.family import PolicyFamily
 from legato_drake.learning.normalization import stats_from_lists, stats_to_lists
 from legato_drake.learning.registry import build_policy
@@ -89,11 +89,8 @@ def save_checkpoint(path: str | Path, ckpt: Checkpoint,
     atomic_write_bytes(Path(path), buffer.getvalue())
 
 
-def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
-    """Reads a checkpoint and rebuilds its policy through the family registry (in eval mode,
-    on ``device``); a family that is not registered is an error naming the registered
-    ones."""
-    path = Path(path)
+def _read(path: Path, device: str = "cpu") -> dict:
+    """The raw payload of the checkpoint at ``path`` (checked to be one of ours)."""
     if not path.is_file():
         raise CheckpointError(f"checkpoint not found: {path}")
     try:
@@ -105,6 +102,27 @@ def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
     if payload.get("version") != VERSION:
         raise CheckpointError(f"{path}: checkpoint version {payload.get('version')} is not "
                               f"{VERSION}")
+    return payload
+
+
+def with_rollout_settings(src: str | Path, dst: str | Path, config: LearningConfig) -> None:
+    """Writes a copy of the checkpoint ``src`` to ``dst`` with ``config``'s
+    ``ROLLOUT_FIELDS`` in its config and everything else (weights, statistics, step) as it
+    was: the same trained network, acting as ``config`` says."""
+    payload = _read(Path(src))
+    settings = {name: getattr(config, name) for name in ROLLOUT_FIELDS}
+    payload["config"] = config_from_dict({**payload["config"], **settings}, str(dst)).to_dict()
+    buffer = io.BytesIO()
+    torch.save(payload, buffer)
+    atomic_write_bytes(Path(dst), buffer.getvalue())
+
+
+def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
+    """Reads a checkpoint and rebuilds its policy through the family registry (in eval mode,
+    on ``device``); a family that is not registered is an error naming the registered
+    ones."""
+    path = Path(path)
+    payload = _read(path, device)
     config = config_from_dict(payload["config"], str(path))
     stats = stats_from_lists(payload["stats"])
     try:

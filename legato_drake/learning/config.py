@@ -228,6 +228,12 @@ class LearningConfig:
         return dataclasses.asdict(self)
 
 
+ROLLOUT_FIELDS = ("action_horizon", "inference_steps")
+"""Fields that change how a trained network acts, never how it is trained (a Diffusion
+Policy's executed steps per chunk and DDIM steps): an experiment trains once for configs
+that differ only in these, and writes each one's values into its copies of the checkpoints."""
+
+
 _FIELDS = {f.name: f for f in dataclasses.fields(LearningConfig)}
 
 
@@ -294,6 +300,17 @@ def apply_overrides(config: LearningConfig, overrides: list[str] | None,
         key, text = item.split("=", 1)
         raw[key.strip()] = _parse_value(text.strip())
     return config_from_dict(raw, where)
+
+
+def apply_rollout_overrides(config: LearningConfig, overrides: list[str] | None,
+                            where: str = "--set") -> LearningConfig:
+    """``apply_overrides`` for a trained policy: only its ``ROLLOUT_FIELDS`` may change."""
+    for item in overrides or []:
+        name = item.split("=", 1)[0].strip()
+        if name not in ROLLOUT_FIELDS:
+            raise ConfigError(f"{where} {item!r}: a trained policy can change only how it "
+                              f"acts: {', '.join(ROLLOUT_FIELDS)}")
+    return apply_overrides(config, overrides, where)
 
 
 def load_config(path: str | Path, overrides: list[str] | None = None) -> LearningConfig:

@@ -36,6 +36,7 @@ from legato_drake.episode import run_episode
 from legato_drake.errors import ConfigError
 from legato_drake.executor import Executor, make_executor
 from legato_drake.files import atomic_write_bytes, atomic_write_csv, atomic_write_text
+from legato_drake.learning.config import ROLLOUT_FIELDS, apply_rollout_overrides
 from legato_drake.progress import progress_bar
 from legato_drake.scenario import Scenario
 from legato_drake.summary import Rate, group_by
@@ -128,18 +129,24 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
              trials: int, out: str | Path, workers: int = 1, replays: int = 0,
              method: str | None = None, seed0: int = EVAL_SEED0,
              duration: float | None = None, progress: bool | None = None,
-             overwrite: bool = False, executor: Executor | None = None) -> dict:
+             overwrite: bool = False, executor: Executor | None = None,
+             overrides: list[str] | None = None) -> dict:
     """Runs ``trials`` closed-loop trials of the policy per embodiment and task (skipping
     those already in the results file), in ``workers`` processes (or on ``executor``);
     returns the results document, rewritten after every trial. The first ``replays`` trials
-    of each cell also get a Meshcat HTML replay in ``OUT/replays/``. A results file of
-    another checkpoint, ``duration``, ``seed0`` or trial set is refused unless ``overwrite``
-    (which starts it afresh)."""
-    from legato_drake.learning.checkpoint import load_checkpoint  # torch: only when needed
+    of each cell also get a Meshcat HTML replay in ``OUT/replays/``. ``overrides``
+    (``["inference_steps=3"]``) change how the policy acts (its config's ``ROLLOUT_FIELDS``
+    only). A results file of another checkpoint, ``duration``, ``seed0``, rollout settings
+    or trial set is refused unless ``overwrite`` (which starts it afresh)."""
+    from legato_drake.learning.checkpoint import (  # torch: only when needed
+        load_checkpoint,
+        with_rollout_settings,
+    )
 
     check_inputs(embodiments, tasks, trials, workers, replays, method, seed0, duration)
     checkpoint = Path(checkpoint).resolve()
     ckpt = load_checkpoint(checkpoint)
+    config = apply_rollout_overrides(ckpt.config, overrides)
     sha = file_sha256(checkpoint)
     method = method or ckpt.config.name
     seeds = [seed0 + i for i in range(trials)]
@@ -152,12 +159,14 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
     path = results_path(out, method)
     doc = {"format": FORMAT, "method": method, "checkpoint": str(checkpoint),
            "checkpoint_sha256": sha, "checkpoint_step": ckpt.step,
-           "config": ckpt.config.to_dict(), "seed0": seed0, "duration": duration,
+           "config": config.to_dict(), "seed0": seed0, "duration": duration,
+           "rollout": {name: getattr(config, name) for name in ROLLOUT_FIELDS},
            "trials": []}
     if path.is_file() and not overwrite:
         old = load_results(path)
         for key, what in (("checkpoint", "checkpoint"), ("checkpoint_sha256", "checkpoint"),
-                          ("duration", "--duration"), ("seed0", "--seed0")):
+                          ("duration", "--duration"), ("seed0", "--seed0"),
+                          ("rollout", "--set")):
             if old.get(key, doc[key]) != doc[key]:
                 raise ConfigError(f"{path} holds results of another {what} ({key} "
                                   f"{old.get(key)}, not {doc[key]}): use another --method or "
@@ -172,7 +181,9 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
     # Trials read a frozen copy, so a checkpoint rewritten meanwhile (training goes on) cannot
     # mix two models into one success rate.
     frozen = path.with_suffix(".pt")
-    if not frozen.is_file() or file_sha256(frozen) != sha:
+    if config != ckpt.config:
+        with_rollout_settings(checkpoint, frozen, config)
+    elif not frozen.is_file() or file_sha256(frozen) != sha:
         atomic_write_bytes(frozen, checkpoint.read_bytes())
     done = {(t["embodiment"], t["task"], t["seed"]) for t in doc["trials"]}
     jobs = []

@@ -65,12 +65,16 @@ class WholeBodyIK(LeafSystem):
     diagonal, 1 by default: ``|v|^2`` above is ``v^T W v``), so heavily weighted joints (a
     slow mobile base) move only where the others cannot do the job.
     The commanded joint positions are integrated (``q += v dt``) and clamped to the limits, so
-    they never leave them. A NaN or infinite target makes the robot decelerate within its
-    acceleration limit and hold.
+    they never leave them, and, where the plant's state is connected, to within
+    ``IkSettings.max_following_error`` of the measured positions (anti-windup: a robot
+    blocked by contact does not wind its targets up while it is held). A NaN or infinite
+    target makes the robot decelerate within its acceleration limit and hold.
 
     Input ports:
         X_WG_desired (RigidTransform): TCP target pose in the world.
         V_WG_desired (6): TCP target spatial velocity [w; v] in the world (feed-forward).
+        plant_state (optional): the plant's state [q; v], for the following-error bound;
+            unconnected, the commanded positions are integrated open loop.
 
     Output ports:
         desired_state (2n): [q_cmd; v_cmd] of the robot's actuated joints, for the joint PD.
@@ -136,6 +140,9 @@ class WholeBodyIK(LeafSystem):
         self._X_input = self.DeclareAbstractInputPort(
             "X_WG_desired", AbstractValue.Make(RigidTransform()))
         self._V_input = self.DeclareVectorInputPort("V_WG_desired", 6)
+        self._plant_state = self.DeclareVectorInputPort(
+            "plant_state", plant.num_multibody_states())
+        self._max_error = settings.max_following_error
         self._state = self.DeclareDiscreteState(np.concatenate([self._q_home, np.zeros(3 * n)]))
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         self.DeclareVectorOutputPort("desired_state", 2 * n, self._calc_desired_state,
@@ -147,6 +154,9 @@ class WholeBodyIK(LeafSystem):
 
     def get_desired_velocity_input_port(self):
         return self._V_input
+
+    def get_plant_state_input_port(self):
+        return self._plant_state
 
     def set_joint_positions(self, context: Context, q: np.ndarray) -> None:
         """Sets the commanded joint positions (e.g. to match a non-home initial posture)."""
@@ -257,6 +267,9 @@ class WholeBodyIK(LeafSystem):
         if self.solve_times is not None:
             self.solve_times.append(time.perf_counter() - start)
         q_next = np.clip(q + step.v * self._dt, self._q_min, self._q_max)
+        if self._plant_state.HasValue(context):
+            measured = self._plant_state.Eval(context)[self._q_index]
+            q_next = np.clip(q_next, measured - self._max_error, measured + self._max_error)
         active = active if step.active is None else step.active
         discrete_state.set_value(self._state, np.concatenate([q_next, step.v, active]))
 
