@@ -35,7 +35,6 @@ import json
 import logging
 import os
 import shutil
-import tempfile
 from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -183,30 +182,25 @@ RUN_FILES = ("*.pt", "config.yaml", "log.csv")
 ``unit.json`` are the grid's)."""
 
 
-def copy_training(src: Path, dst: Path, config: LearningConfig) -> dict[str, bytes]:
-    """The files of the finished run ``src`` for a run of ``config`` that differs from it
-    only in ``ROLLOUT_FIELDS``: its checkpoints with ``config``'s rollout settings written
-    in (``with_rollout_settings``), its config likewise, its log as it is."""
-    files = {}
-    with tempfile.TemporaryDirectory(prefix="legato_drake_copy_") as tmp:
-        for pattern in RUN_FILES:
-            for path in sorted(src.glob(pattern)):
-                if path.name == "selected.pt":
-                    continue
-                if path.suffix == ".pt":
-                    with_rollout_settings(path, Path(tmp) / path.name, config)
-                    files[path.name] = (Path(tmp) / path.name).read_bytes()
-                elif path.name == "config.yaml":
-                    trained = load_config(path)
-                    save_config(dataclasses.replace(trained, **{
-                        name: getattr(config, name) for name in ROLLOUT_FIELDS}),
-                        Path(tmp) / path.name)
-                    files[path.name] = (Path(tmp) / path.name).read_bytes()
-                else:
-                    files[path.name] = path.read_bytes()
+def copy_training(src: Path, dst: Path, config: LearningConfig) -> None:
+    """Writes into ``dst`` the files of the finished run ``src`` for a run of ``config``
+    that differs from it only in ``ROLLOUT_FIELDS``: its checkpoints with ``config``'s
+    rollout settings written in (``with_rollout_settings``), its config likewise, its log as
+    it is."""
+    dst.mkdir(parents=True, exist_ok=True)
+    for pattern in RUN_FILES:
+        for path in sorted(src.glob(pattern)):
+            if path.name == "selected.pt":
+                continue
+            if path.suffix == ".pt":
+                with_rollout_settings(path, dst / path.name, config)
+            elif path.name == "config.yaml":
+                save_config(dataclasses.replace(load_config(path), **{
+                    name: getattr(config, name) for name in ROLLOUT_FIELDS}), dst / path.name)
+            else:
+                atomic_write_bytes(dst / path.name, path.read_bytes())
     log.info("%s: the training of %s, with its rollout settings (%s)", dst.name, src.name,
              ", ".join(f"{n}={getattr(config, n)}" for n in ROLLOUT_FIELDS))
-    return files
 
 
 def _device(grid: Grid, executor: Executor) -> str:
@@ -307,7 +301,8 @@ class _Scheduler:
             self.bar.update(1)
 
     def _share_training(self, src: Path, run: RunPlan) -> None:
-        self._write_run(run, copy_training(src, run.folder, run.config))
+        copy_training(src, run.folder, run.config)
+        self._write_run(run, {})  # its unit.json, last
         self.skipped["trainings"] += 1
         self._after_training(run)
 
