@@ -49,6 +49,15 @@ class IkSettings:
     """Weight of the posture term in the gripper task's own stage, relative to tracking:
     where joints are at their bounds, how much tracking the posture may cost (0: none,
     strict priority). While no bound is active it costs none, whatever this weight."""
+    damping: float = 1e-6
+    """Damping lambda of the gripper stage (damped least squares, ``lambda |v|^2`` in the
+    metric W). Where the joints that are not at a bound can hardly move the gripper the way
+    the target asks (a target at the edge of the workspace), the undamped step asks them for
+    large velocities that the acceleration bound then turns into a chattering limit cycle:
+    a DP policy drove GR-1's wrist roll and pitch to their limits with the lid in hand, the
+    shoulder then swung at up to 7 rad/s and shook the lid off (lid, scene 10027).
+    ``1e-3`` removes that and leaves the scripted experts' success and tracking as they
+    were (within 0.1 mm RMS), but the project's measured results are at the default."""
     max_joint_speed: float = 2.5
     """Joint speed bound (rad/s or m/s), applied to every controlled joint."""
     max_joint_acceleration: float = 100.0

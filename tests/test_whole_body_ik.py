@@ -184,6 +184,29 @@ def test_velocity_weights_move_motion_to_the_light_joints(panda_plant):
                                atol=1e-7)
 
 
+def test_damping_shortens_the_gripper_step_as_damped_least_squares_does(panda_plant):
+    """``IkSettings.damping`` is the lambda of stage 1: unsaturated, the TCP moves at
+    J (J^T J + lambda I)^-1 J^T V* instead of V*."""
+    from legato_drake.poses import rotation_log
+
+    plain, damped = _ik(panda_plant), _with_ik(panda_plant, damping=0.05)
+    q = plain._q_home
+    X = plain.tcp_pose(q)
+    X_des = RigidTransform(X.rotation() @ RotationMatrix.MakeXRotation(2e-4),
+                           X.translation() + [0.0, 2e-4, -1e-4])
+    a = plain.solve(q, np.zeros(plain.num_joints), X_des, np.zeros(6))
+    b = damped.solve(q, np.zeros(plain.num_joints), X_des, np.zeros(6))
+    assert a.status == b.status == "unconstrained"
+    V = plain._settings.tracking_gain * np.concatenate([
+        rotation_log(X_des.rotation() @ X.rotation().inverse()),
+        X_des.translation() - X.translation()])
+    J = np.column_stack([_tcp_twist(plain, q, e) for e in np.eye(plain.num_joints)])
+    dls = J @ np.linalg.solve(J.T @ J + 0.05 * np.eye(plain.num_joints), J.T @ V)
+    np.testing.assert_allclose(_tcp_twist(plain, q, a.v), V, atol=1e-5 * np.abs(V).max())
+    np.testing.assert_allclose(_tcp_twist(plain, q, b.v), dls, atol=1e-6 * np.abs(V).max())
+    assert np.linalg.norm(dls) < 0.95 * np.linalg.norm(V)  # measurably shorter (0.91)
+
+
 def test_gr1_head_stays_level_while_the_waist_reaches(gr1_plant):
     """The head-orientation task (stage 2) keeps the head at its home orientation with the
     head joints while the gripper, which comes first, is tracked exactly."""

@@ -85,7 +85,7 @@ IK_SCALARS = {  # field: smallest allowed value, and whether it is allowed itsel
     "tracking_gain": (0.0, False), "posture_gain": (0.0, True),
     "posture_weight": (0.0, True), "posture_task_weight": (0.0, True),
     "max_joint_speed": (0.0, False), "max_joint_acceleration": (0.0, False),
-    "max_following_error": (0.0, False)}
+    "max_following_error": (0.0, False), "damping": (0.0, False)}
 """The IK's scalar fields and their ranges."""
 IK_TABLES = ("joint_speed_limits", "joint_acceleration_limits", "joint_velocity_weights")
 """The IK's per-joint tables of positive numbers."""

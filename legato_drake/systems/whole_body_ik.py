@@ -41,7 +41,7 @@ class WholeBodyIK(LeafSystem):
     Each step solves a prioritised velocity IK (SPEC §5) in two stages, both within the
     joint velocity bounds ``lb <= v <= ub``::
 
-        1. gripper:    v_1 = argmin |J v - V*|^2 + c_p |P (v - v_posture)|^2
+        1. gripper:    v_1 = argmin |J v - V*|^2 + c_p |P (v - v_posture)|^2 + lambda |v|^2
         2. the rest:   v   = argmin sum_i c_i |J_i v - w_i*|^2 + w |v - v_posture|^2
                              s.t. J v = J v_1
 
@@ -52,15 +52,16 @@ class WholeBodyIK(LeafSystem):
     ``v_posture = k (q_home - q)`` on the posture joints (zero on the others), and ``lb, ub``
     the tightest of the position limits (distance / dt), the speed limits, the braking
     distance ``sqrt(2 a_max |distance|)``, and the acceleration limit around the previous
-    velocity. Stage 2 only moves in the null space of ``J``: the orientation tasks never
-    cost gripper tracking. The posture cannot either while no bound is active (``P``); where
-    the robot is saturated, ``c_p`` (``IkSettings.posture_task_weight``) sets how much
-    tracking it may cost: none by default (strict priority), a little on Spot, where it keeps
-    the arm out of a twisted branch it would otherwise follow into a joint limit. Each stage
-    is a linear solve where its optimum is inside the bounds and, where not, a box QP solved
-    exactly by ``box_qp`` (a dense active-set method warm started from the last step's active
-    set); stage 2 holds ``J v = J v_1`` by a penalty 1e6 times its own weights, which keeps
-    it a box QP and the gripper's velocity within 1e-6 of stage 1's.
+    velocity, and ``lambda`` a damping (``IkSettings.damping``). Stage 2 only moves in the null
+    space of ``J``: the orientation tasks never cost gripper tracking. The posture cannot
+    either while no bound is active (``P``); where the robot is saturated, ``c_p``
+    (``IkSettings.posture_task_weight``) sets how much tracking it may cost: none by default
+    (strict priority), a little on Spot, where it keeps the arm out of a twisted branch it
+    would otherwise follow into a joint limit.
+    Each stage is a linear solve where its optimum is inside the bounds and, where not, a box
+    QP solved exactly by ``box_qp`` (a dense active-set method warm started from the last
+    step's active set); stage 2 holds ``J v = J v_1`` by a penalty 1e6 times its own weights,
+    which keeps it a box QP and the gripper's velocity within 1e-6 of stage 1's.
     Redundancy is resolved in the metric ``W`` (``IkSettings.joint_velocity_weights``,
     diagonal, 1 by default: ``|v|^2`` above is ``v^T W v``), so heavily weighted joints (a
     slow mobile base) move only where the others cannot do the job.
@@ -134,6 +135,7 @@ class WholeBodyIK(LeafSystem):
         self._eye = np.eye(n)
         self._eps = 1e-6 * self._eye
         self._eps6 = 1e-6 * np.eye(6)
+        self._damping = settings.damping * self._eye
         self._stage2_H = settings.posture_weight * self._eye + self._eps
         self._origin = np.zeros(3)
 
@@ -216,7 +218,7 @@ class WholeBodyIK(LeafSystem):
         # Stage 1: the gripper task within the bounds, with the posture term (projected on the
         # null space of J, so it only costs tracking where bounds are active) at weight c_p.
         c_p = self._settings.posture_task_weight
-        H1, g1 = J.T @ J + self._eps, J.T @ V
+        H1, g1 = J.T @ J + self._damping, J.T @ V
         if c_p > 0.0:
             P = self._eye - J.T @ np.linalg.solve(J @ J.T + self._eps6, J)
             PtP = c_p * P.T @ P
