@@ -133,10 +133,9 @@ class WholeBodyIK(LeafSystem):
         self._a_dt = self._a_max * period
         self._posture_gain = settings.posture_gain * self._posture_mask / self._scale
         self._eye = np.eye(n)
-        self._eps = 1e-6 * self._eye
         self._eps6 = 1e-6 * np.eye(6)
         self._damping = settings.damping * self._eye
-        self._stage2_H = settings.posture_weight * self._eye + self._eps
+        self._stage2_H = (settings.posture_weight + 1e-6) * self._eye
         self._origin = np.zeros(3)
 
         self._X_input = self.DeclareAbstractInputPort(
