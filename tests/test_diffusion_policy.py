@@ -37,11 +37,17 @@ def dp_config(algo: str = "dp_velocity", **changes):
     return tiny_config(**fields)
 
 
-def _stats(config, rng):
+def _stats(config, rng, batch=None):
+    """Normalisation statistics; with ``batch``, its chunks' range (the training data's, as
+    in training: its chunks then lie within [-1, 1])."""
     stats = {k: {"mean": rng.normal(0, 0.01, d).astype(np.float32),
                  "std": np.full(d, 0.05, np.float32)} for k, d in observation_sizes(3).items()}
-    actions = rng.normal(0, 0.01, (40, 7))
-    stats.update(DiffusionPolicy.extra_stats(config, [actions], [actions]))
+    actions = [rng.normal(0, 0.01, (40, 7))]
+    planned = list(actions)
+    if batch is not None:
+        actions += list(batch["actions"].numpy())
+        planned += list(batch["planned_actions"].numpy())
+    stats.update(DiffusionPolicy.extra_stats(config, actions, planned))
     return stats
 
 
@@ -113,8 +119,8 @@ def test_the_chunk_invariant_loss_is_zero_on_the_demonstration_and_trains_the_ne
     rng = np.random.default_rng(0)
     config = dp_config(algo, invariant_weight=1.0)
     torch.manual_seed(0)
-    policy = build_policy(config, _stats(config, rng)).train()
     batch = _batch(rng)
+    policy = build_policy(config, _stats(config, rng, batch)).train()
     losses = policy.losses(batch)
     assert set(losses) == {"mse", "invar", "total"} and losses["invar"] > 0
     losses["invar"].backward()
@@ -133,6 +139,23 @@ def test_the_chunk_invariant_loss_is_zero_on_the_demonstration_and_trains_the_ne
     policy.net["unet"] = Oracle()
     exact = policy.losses(batch)
     assert float(exact["invar"]) < 1e-6 and float(exact["mse"]) < 1.0
+
+
+def test_the_chunk_invariant_loss_stays_bounded_at_the_last_noise_level():
+    """At the last level sqrt(a_t) is nearly 0: the clean chunk is clipped to [-1, 1] as the
+    sampler clips it, or one such sample's L_invar (and its gradient) swamps the batch."""
+    rng = np.random.default_rng(0)
+    config = dp_config("dp_reltraj", invariant_weight=1.0)
+    torch.manual_seed(0)
+    policy = build_policy(config, _stats(config, rng)).train()
+    batch = _batch(rng)
+
+    def invar_at(level: int) -> float:
+        levels = torch.full((len(batch["actions"]),), level)
+        return float(policy.losses(batch, levels)["invar"].detach())
+
+    assert float(policy.train_scheduler.alphas_cumprod[-1]) < 1e-3  # the division's scale
+    assert invar_at(config.diffusion_steps - 1) < 10 * invar_at(0)
 
 
 def test_configs_that_cannot_hold_a_window_are_refused():

@@ -28,8 +28,8 @@ Two action representations (SPEC §8):
 
 With ``invariant_weight`` > 0 the appendix-B chunk loss is added: the DHB invariants of the
 demonstrated history followed by the clean chunk the network implies at that noise level
-(``x0 = (x_t - sqrt(1 - a_t) eps) / sqrt(a_t)``, differentiable) against those of the history
-followed by the demonstrated chunk.
+(``x0 = (x_t - sqrt(1 - a_t) eps) / sqrt(a_t)``, differentiable, clipped to [-1, 1] as the
+sampler clips it) against those of the history followed by the demonstrated chunk.
 """
 
 from __future__ import annotations
@@ -314,7 +314,10 @@ class DiffusionPolicy(PolicyFamily):
         calls = int(self.calls) if self.training else -1
         return torch.Generator().manual_seed((self.config.seed * 1_000_003 + calls) % 2**63)
 
-    def losses(self, batch: Mapping) -> dict[str, torch.Tensor]:
+    def losses(self, batch: Mapping, levels: torch.Tensor | None = None
+               ) -> dict[str, torch.Tensor]:
+        """The family's losses; ``levels`` (B,) fixes each sample's noise level (diagnostics:
+        ``scripts/invariant_gradients.py``), else they are drawn uniformly."""
         cfg = self.config
         net = self.net if self.training else self.ema
         To, P = cfg.obs_horizon, cfg.pred_horizon
@@ -326,13 +329,17 @@ class DiffusionPolicy(PolicyFamily):
         if self.training:
             self.calls += 1
         noise = torch.randn(x0.shape, generator=generator).to(x0)
-        t = torch.randint(0, cfg.diffusion_steps, (len(x0),), generator=generator)
+        t = torch.randint(0, cfg.diffusion_steps, (len(x0),), generator=generator) \
+            if levels is None else levels.to(torch.long).cpu()
         noisy = self.train_scheduler.add_noise(x0, noise, t)
         predicted = net["unet"](noisy, t.to(x0.device), net["conditioner"](obs))
         mse = (((predicted - noise) ** 2).mean(-1) * mask).sum() / mask.sum().clamp(min=1)
         if cfg.invariant_weight > 0:
             a = self.train_scheduler.alphas_cumprod.to(x0)[t][:, None, None]
-            clean = (noisy - (1 - a).sqrt() * predicted) / a.sqrt()
+            # Clipped to [-1, 1] as the sampler clips it (``clip_sample``): unclipped, the
+            # division by sqrt(a_t) ~ 5e-4 at the last level blows the estimate up, and one
+            # such sample's L_invar gradient outweighed the batch's L2 gradient 10 000-fold.
+            clean = ((noisy - (1 - a).sqrt() * predicted) / a.sqrt()).clamp(-1.0, 1.0)
             history = history_from_observations(batch["obs"]["delta_positions"][:, To - 1],
                                                 batch["obs"]["delta_eulers"][:, To - 1])
             invar = invariant_loss(history, self._unscale(clean)[..., :6], chunk[..., :6],
