@@ -25,7 +25,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from legato_drake.diagram import build_plant
 from legato_drake.embodiments import EMBODIMENTS
-from legato_drake.poses import rotation_log
+from legato_drake.poses import spatial_error
 from legato_drake.scenario import Scenario
 from legato_drake.summary import format_table
 from legato_drake.systems.whole_body_ik import WholeBodyIK
@@ -79,10 +79,7 @@ def bench(name: str, steps: int) -> list:
         ours.append(time.perf_counter() - start)
         qp_share += step.status == "qp"
 
-        X = ik.tcp_pose(q)
-        error = np.concatenate([rotation_log(X_des.rotation() @ X.rotation().inverse()),
-                                X_des.translation() - X.translation()])
-        V = robot.embodiment.ik.tracking_gain * error
+        V = robot.embodiment.ik.tracking_gain * spatial_error(ik.tcp_pose(q), X_des)
         full_q = plant.GetPositions(context)
         full_q[[j.position_start() for j in robot.controlled_joints]] = q
         plant.SetPositions(context, full_q)

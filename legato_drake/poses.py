@@ -32,6 +32,13 @@ def rotation_log(R: RotationMatrix) -> np.ndarray:
     return aa.axis() * aa.angle()
 
 
+def spatial_error(X: RigidTransform, X_desired: RigidTransform) -> np.ndarray:
+    """``[rotvec(R_des R^T); p_des - p]``: the world-frame rotation and translation from ``X``
+    to ``X_desired`` (what a velocity IK's tracking gain multiplies)."""
+    return np.concatenate([rotation_log(X_desired.rotation() @ X.rotation().inverse()),
+                           X_desired.translation() - X.translation()])
+
+
 def rotation_exp(w: np.ndarray) -> RotationMatrix:
     """Returns the rotation matrix of the rotation vector ``w``."""
     angle = float(np.linalg.norm(w))

@@ -7,7 +7,7 @@ import pytest
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.analysis import Simulator
 
-from legato_drake.poses import pose_error
+from legato_drake.poses import pose_error, spatial_error
 from legato_drake.systems.whole_body_ik import WholeBodyIK
 
 
@@ -187,8 +187,6 @@ def test_velocity_weights_move_motion_to_the_light_joints(panda_plant):
 def test_damping_shortens_the_gripper_step_as_damped_least_squares_does(panda_plant):
     """``IkSettings.damping`` is the lambda of stage 1: unsaturated, the TCP moves at
     J (J^T J + lambda I)^-1 J^T V* instead of V*."""
-    from legato_drake.poses import rotation_log
-
     plain, damped = _ik(panda_plant), _with_ik(panda_plant, damping=0.05)
     q = plain._q_home
     X = plain.tcp_pose(q)
@@ -197,9 +195,7 @@ def test_damping_shortens_the_gripper_step_as_damped_least_squares_does(panda_pl
     a = plain.solve(q, np.zeros(plain.num_joints), X_des, np.zeros(6))
     b = damped.solve(q, np.zeros(plain.num_joints), X_des, np.zeros(6))
     assert a.status == b.status == "unconstrained"
-    V = plain._settings.tracking_gain * np.concatenate([
-        rotation_log(X_des.rotation() @ X.rotation().inverse()),
-        X_des.translation() - X.translation()])
+    V = plain._settings.tracking_gain * spatial_error(X, X_des)
     J = np.column_stack([_tcp_twist(plain, q, e) for e in np.eye(plain.num_joints)])
     dls = J @ np.linalg.solve(J.T @ J + 0.05 * np.eye(plain.num_joints), J.T @ V)
     np.testing.assert_allclose(_tcp_twist(plain, q, a.v), V, atol=1e-5 * np.abs(V).max())

@@ -14,7 +14,7 @@ from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 from legato_drake import conventions
-from legato_drake.poses import rotation_log
+from legato_drake.poses import rotation_log, spatial_error
 from legato_drake.robot_types import RobotHandles
 from legato_drake.systems.box_qp import solve_box_qp
 
@@ -208,9 +208,7 @@ class WholeBodyIK(LeafSystem):
         J = self._plant.CalcJacobianSpatialVelocity(
             self._plant_context, JacobianWrtVariable.kV, self._frame, self._origin, world,
             world)[:, self._v_index] * self._scale
-        error = np.concatenate([rotation_log(X_des.rotation() @ X.rotation().inverse()),
-                                X_des.translation() - X.translation()])
-        V = V_ff + self._settings.tracking_gain * error
+        V = V_ff + self._settings.tracking_gain * spatial_error(X, X_des)
         lb_u, ub_u = lb * self._inv_scale, ub * self._inv_scale
         u_posture = self._posture_gain * (self._q_home - q)
 
