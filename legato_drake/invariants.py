@@ -91,6 +91,10 @@ Array = TypeVar("Array", np.ndarray, torch.Tensor)
 DEFAULT_EPS = 1e-6
 """Motion resolution (metres and radians per step) of the smooth fallbacks."""
 
+DEFAULT_TURN_EPS = 1e-6
+"""Turn resolution (the sine of the angle between consecutive segments, no unit) of the
+binormal's fallback."""
+
 INVARIANT_NAMES = (
     "m_p", "sin_th1_p", "sin_2th1_p", "sin_th2_p", "sin_2th2_p",
     "m_r", "sin_th1_r", "sin_2th1_r", "sin_th2_r", "sin_2th2_r",
@@ -102,6 +106,7 @@ _SMALL_ANGLE2 = 1e-12  # squared angle below which the rotation-vector maps use 
 
 __all__ = [
     "DEFAULT_EPS",
+    "DEFAULT_TURN_EPS",
     "INVARIANT_NAMES",
     "deltas_to_poses",
     "gmm_mean_of_most_likely_mode",
@@ -378,15 +383,15 @@ def _sin_sin2(s: Array, c: Array, eps2: float) -> tuple[Array, Array]:
     return s / _xp(s).sqrt(r2), 2 * s * c / r2
 
 
-def _dhb_block(v: Array, eps: float) -> tuple[Array, Array]:
+def _dhb_block(v: Array, eps: float, turn_eps: float) -> tuple[Array, Array]:
     """The rows (..., N-2, 5) of values (m, sin th1, sin 2th1, sin th2, sin 2th2) of (..., N, 3)
     segments, and the tail (..., 4): (m_{N-2}, sin th1_{N-2}, sin 2th1_{N-2}, m_{N-1})."""
     xp = _xp(v)
-    eps2 = eps * eps
+    eps2, turn_eps2 = eps * eps, turn_eps * turn_eps
     x = _normalize(_carried_directions(v, eps2, _const([1.0, 0.0, 0.0], v)))
-    raw_y = _cross(x[..., :-1, :], x[..., 1:, :])
+    raw_y = _cross(x[..., :-1, :], x[..., 1:, :])  # |raw_y| = sin(turn between segments)
     y_start = _normalize(_cross(x[..., 0, :], _const([1.0, 1.0, 1.0], v)))
-    h_y = _carried_directions(raw_y, eps2, y_start)
+    h_y = _carried_directions(raw_y, turn_eps2, y_start)
     # flip y_k wherever it would point against y_{k-1}: signs multiply up along the window
     one = _const(1.0, v)
     flips = xp.where(_dot(h_y[..., 1:, :], h_y[..., :-1, :]) < 0, -one, one)
@@ -394,20 +399,21 @@ def _dhb_block(v: Array, eps: float) -> tuple[Array, Array]:
     y = _normalize(h_y) * signs[..., None]
     x_k, x_k1 = x[..., :-2, :], x[..., 1:-1, :]
     y_k, y_k1 = y[..., :-1, :], y[..., 1:, :]
-    sin1, sin21 = _sin_sin2(_dot(raw_y[..., :-1, :], y_k), _dot(x_k, x_k1), eps2)
-    sin2, sin22 = _sin_sin2(_dot(_cross(y_k, y_k1), x_k1), _dot(y_k, y_k1), eps2)
+    sin1, sin21 = _sin_sin2(_dot(raw_y[..., :-1, :], y_k), _dot(x_k, x_k1), turn_eps2)
+    sin2, sin22 = _sin_sin2(_dot(_cross(y_k, y_k1), x_k1), _dot(y_k, y_k1), turn_eps2)
     n2 = _dot(v, v)
     magnitude = n2 / xp.sqrt(n2 + eps2)
     rows = xp.stack([magnitude[..., :-2], sin1, sin21, sin2, sin22], -1)
     # What the window defines past its last full row: th1 between the last two segments and
     # the magnitudes of both (th2 there would need one segment more).
     tail_sin1, tail_sin21 = _sin_sin2(_dot(raw_y[..., -1, :], y[..., -1, :]),
-                                      _dot(x[..., -2, :], x[..., -1, :]), eps2)
+                                      _dot(x[..., -2, :], x[..., -1, :]), turn_eps2)
     tail = xp.stack([magnitude[..., -2], tail_sin1, tail_sin21, magnitude[..., -1]], -1)
     return rows, tail
 
 
-def invariants_from_segments(linear: Array, angular: Array, eps: float = DEFAULT_EPS) -> Array:
+def invariants_from_segments(linear: Array, angular: Array, eps: float = DEFAULT_EPS,
+                             turn_eps: float = DEFAULT_TURN_EPS) -> Array:
     """phi of N segments given as vectors: (..., N, 3) each -> (..., N-2, 10).
 
     ``linear[k]`` is segment k's translation in the window's initial frame and ``angular[k]``
@@ -416,14 +422,16 @@ def invariants_from_segments(linear: Array, angular: Array, eps: float = DEFAULT
     if linear.shape[-2] < 3 or linear.shape != angular.shape or linear.shape[-1] != 3:
         raise ValueError("need (..., N, 3) linear and angular segments with N >= 3, got "
                          f"{tuple(linear.shape)} and {tuple(angular.shape)}")
-    return _rows_and_tail(linear, angular, eps)[0]
+    return _rows_and_tail(linear, angular, eps, turn_eps)[0]
 
 
-def _rows_and_tail(linear: Array, angular: Array, eps: float) -> tuple[Array, Array]:
+def _rows_and_tail(linear: Array, angular: Array, eps: float, turn_eps: float
+                   ) -> tuple[Array, Array]:
     """phi (..., N-2, 10) of N segments and its tail (..., 8): (m_p, sin th1_p, sin 2th1_p)
     at row N-2, m_p of segment N-1, then the same 4 of the angular block."""
     xp = _xp(linear)
-    rows, tail = _dhb_block(xp.stack([linear, angular], -3), eps)  # both blocks in one pass
+    # both blocks in one pass
+    rows, tail = _dhb_block(xp.stack([linear, angular], -3), eps, turn_eps)
     return (xp.concatenate([rows[..., 0, :, :], rows[..., 1, :, :]], -1),
             xp.concatenate([tail[..., 0, :], tail[..., 1, :]], -1))
 
@@ -439,12 +447,14 @@ def _segments_from_deltas(deltas: Array) -> tuple[Array, Array]:
     return linear, angular
 
 
-def invariants_from_deltas(deltas: Array, eps: float = DEFAULT_EPS) -> Array:
+def invariants_from_deltas(deltas: Array, eps: float = DEFAULT_EPS,
+                           turn_eps: float = DEFAULT_TURN_EPS) -> Array:
     """phi of (..., N, 6) pose deltas [dx, dy, dz, droll, dpitch, dyaw] -> (..., N-2, 10)."""
-    return invariants_from_segments(*_segments_from_deltas(deltas), eps)
+    return invariants_from_segments(*_segments_from_deltas(deltas), eps, turn_eps)
 
 
-def invariants_from_poses(positions: Array, rotations: Array, eps: float = DEFAULT_EPS) -> Array:
+def invariants_from_poses(positions: Array, rotations: Array, eps: float = DEFAULT_EPS,
+                          turn_eps: float = DEFAULT_TURN_EPS) -> Array:
     """phi of N + 1 absolute poses -> (..., N-2, 10).
 
     ``positions`` (..., N+1, 3); ``rotations`` (..., N+1, 3, 3) matrices or (..., N+1, 4)
@@ -462,7 +472,8 @@ def invariants_from_poses(positions: Array, rotations: Array, eps: float = DEFAU
         relative = matrix_to_quaternion(_transpose(rot[..., :-1, :, :]) @ rot[..., 1:, :, :])
     step = positions[..., 1:, :] - positions[..., :-1, :]
     linear = _mat_vec(_transpose(first)[..., None, :, :], step)
-    return invariants_from_segments(linear, quaternion_to_rotation_vector(relative), eps)
+    return invariants_from_segments(linear, quaternion_to_rotation_vector(relative), eps,
+                                    turn_eps)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -471,7 +482,8 @@ def invariants_from_poses(positions: Array, rotations: Array, eps: float = DEFAU
 
 def invariant_loss(history: Array, predicted: Array, demonstrated: Array, *,
                    reduction: Literal["mean", "sum", "none"] = "mean",
-                   eps: float = DEFAULT_EPS, tail: bool = False) -> Array:
+                   eps: float = DEFAULT_EPS, turn_eps: float = DEFAULT_TURN_EPS,
+                   tail: bool = False) -> Array:
     """L_invar: ``|phi(history + predicted) - phi(history + demonstrated)|^2``.
 
     ``history`` (..., T, 6) deltas, oldest first. ``predicted`` and ``demonstrated`` are one
@@ -496,7 +508,7 @@ def invariant_loss(history: Array, predicted: Array, demonstrated: Array, *,
     xp = _xp(predicted)
     windows = xp.stack([xp.concatenate([history, predicted], -2),
                         xp.concatenate([history, demonstrated], -2)], 0)
-    rows, ends = _rows_and_tail(*_segments_from_deltas(windows), eps)
+    rows, ends = _rows_and_tail(*_segments_from_deltas(windows), eps, turn_eps)
     per_sample = ((rows[0] - rows[1]) ** 2).sum((-2, -1))
     if tail:
         per_sample = per_sample + ((ends[0] - ends[1]) ** 2).sum(-1)

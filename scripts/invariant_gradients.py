@@ -52,11 +52,13 @@ def main() -> None:
     parser.add_argument("--checkpoint", help="a trained run's checkpoint of the same config")
     parser.add_argument("--weight", type=float, default=0.001, help="L_invar's weight")
     parser.add_argument("--batch", type=int, default=64)
+    parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                        help="config overrides, e.g. invariant_eps=1e-3 (repeatable)")
     args = parser.parse_args()
     torch.set_num_threads(1)
     torch.manual_seed(0)
     # invariant_weight > 0 makes losses() compute L_invar; its value does not enter here.
-    config = load_config(args.config, [f"invariant_weight={max(args.weight, 1e-9)}"])
+    config = load_config(args.config, [f"invariant_weight={max(args.weight, 1e-9)}", *args.set])
     data = DemoSequenceDataset(args.data, config.dataset_keys, config.seq_length, "train")
     batch = next(iter(DataLoader(data, batch_size=args.batch, shuffle=True,
                                  generator=torch.Generator().manual_seed(0))))

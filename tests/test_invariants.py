@@ -421,6 +421,30 @@ def test_degenerate_motion_is_finite(dtype: torch.dtype) -> None:
     assert torch.isfinite(loss) and torch.isfinite(action.grad).all()
 
 
+def test_turn_eps_keeps_the_binormal_of_a_straight_move() -> None:
+    """A straight move has no plane of its own: at the default turn resolution th2 follows
+    sub-micrometre noise; with turn_eps above the noise's turning angle it stays put, while a
+    real turn still shows."""
+    gen = torch.Generator().manual_seed(3)
+    straight = torch.zeros(64, 12, 6, dtype=torch.float64)
+    straight[..., 0] = 0.005  # 5 mm a step along x, no rotation
+    noisy = straight + 1e-7 * torch.randn(straight.shape, generator=gen, dtype=torch.float64)
+    th2 = slice(3, 5)
+    for turn_eps, bound in ((inv.DEFAULT_TURN_EPS, None), (0.1, 1e-2)):
+        clean_phi = inv.invariants_from_deltas(straight, eps=1e-3, turn_eps=turn_eps)
+        noisy_phi = inv.invariants_from_deltas(noisy, eps=1e-3, turn_eps=turn_eps)
+        change = (noisy_phi - clean_phi)[..., th2].abs().max().item()
+        if bound is None:
+            assert change > 0.1  # 1e-7 m of noise moves th2 by O(1)
+        else:
+            assert change < bound
+    turned = straight.clone()
+    turned[:, 6:, 1] = 0.005  # a 45 degree turn in the xy plane halfway
+    phi = inv.invariants_from_deltas(turned, eps=1e-3, turn_eps=0.1)
+    torch.testing.assert_close(phi[:, 5, 1], torch.full((64,), 0.6936, dtype=torch.float64),
+                               atol=1e-3, rtol=0)  # sin th1 of the turn: about sin 45 degrees
+
+
 # ---------------------------------------------------------------------------------------------
 # the loss
 

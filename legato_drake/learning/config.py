@@ -98,6 +98,15 @@ class LearningConfig:
     """Motion resolution of L_invar (m and rad per step, ``invariants`` ``eps``): motion
     below it counts as rest. The invariants' gradients scale like 1 / max(|action|, eps), so
     a tiny eps lets the nearly still steps at the ends of moves dominate the loss."""
+    invariant_turn_eps: float = 1e-6
+    """Turn resolution of L_invar (the sine of the angle between consecutive segments,
+    ``invariants`` ``turn_eps``): a smaller turn keeps the previous binormal. Straight moves
+    have no plane of their own, so at 1e-6 the th2 values of a straight move follow the
+    rounding of its deltas."""
+    invariant_snr_clip: float = 0.0
+    """Diffusion Policy: weigh each sample's L_invar by ``min(SNR_t, clip) / clip`` (Min-SNR
+    weighting; ``SNR_t = a_t / (1 - a_t)``), so the noisy levels, whose implied clean chunk is
+    centimetres off, weigh little; 0 weighs every level alike."""
     invariant_tail: bool = False
     """Compare the window's tail too (``invariants.invariant_loss``): without it (the
     appendix's loss) a single predicted action enters L_invar through th2 alone."""
@@ -188,11 +197,11 @@ class LearningConfig:
                                          f"({self.diffusion_steps}), got {self.inference_steps}")
         if not (math.isfinite(self.ema_decay) and 0 <= self.ema_decay < 1):
             raise bad("ema_decay", f"must be in [0, 1), got {self.ema_decay}")
-        for name in ("lr", "min_std", "invariant_eps"):
+        for name in ("lr", "min_std", "invariant_eps", "invariant_turn_eps"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise bad(name, f"must be a positive number, got {getattr(self, name)}")
         for name in ("weight_decay", "grad_clip", "nll_weight", "grasp_weight",
-                     "invariant_weight"):
+                     "invariant_weight", "invariant_snr_clip"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
                 raise bad(name, f"must be a non-negative number, got {getattr(self, name)}")
         if self.history not in range(HISTORY + 1):

@@ -343,7 +343,12 @@ class DiffusionPolicy(PolicyFamily):
             history = history_from_observations(batch["obs"]["delta_positions"][:, To - 1],
                                                 batch["obs"]["delta_eulers"][:, To - 1])
             invar = invariant_loss(history, self._unscale(clean)[..., :6], chunk[..., :6],
-                                   eps=cfg.invariant_eps, tail=cfg.invariant_tail)
+                                   eps=cfg.invariant_eps, turn_eps=cfg.invariant_turn_eps,
+                                   tail=cfg.invariant_tail, reduction="none")
+            if cfg.invariant_snr_clip > 0:
+                snr = a[:, 0, 0] / (1 - a[:, 0, 0])
+                invar = invar * snr.clamp(max=cfg.invariant_snr_clip) / cfg.invariant_snr_clip
+            invar = invar.mean()
         else:
             invar = torch.zeros((), dtype=mse.dtype, device=mse.device)
         return {"mse": mse, "invar": invar, "total": mse + cfg.invariant_weight * invar}

@@ -191,6 +191,7 @@ class RecurrentGMMPolicy(PolicyFamily):
             predicted = self.mode_action(out)[..., :6]
             invar = _masked_mean(invariant_loss(history, predicted, actions[..., :6],
                                                 reduction="none", eps=cfg.invariant_eps,
+                                                turn_eps=cfg.invariant_turn_eps,
                                                 tail=cfg.invariant_tail),
                                  mask)
         else:
