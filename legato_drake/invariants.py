@@ -53,17 +53,24 @@ Choices where the appendix is loose (each is tested in ``tests/test_invariants.p
   and (almost) collinear segments keep the previous y axis, faded in smoothly rather than
   switched at a threshold: ``axis_k = h_k / |h_k|`` with ``h_k = u_k + lam_k h_{k-1}``,
   ``u_k = raw_k / sqrt(|raw_k|^2 + eps^2)`` and ``lam_k = eps^2 / (|raw_k|^2 + eps^2)``
-  (``raw`` is the segment for x and ``x_k x x_{k+1}`` for y). At rest ``h_k = h_{k-1}``; on a
+  (``raw`` is the segment for x, and ``x_k x x_{k+1}``, the sine of the turn, for y, where
+  ``turn_eps`` takes eps's place). At rest ``h_k = h_{k-1}``; on a
   well-defined step the axis moves by only ``O((eps / |raw_k|)^2)``. The recurrence is linear,
   so all steps are computed at once (no Python loop over time). Before the first segment the
   x axis is the gripper's x axis at the window's start and the y axis
   ``normalize(x_0 x (1, 1, 1))``, both fixed in the initial frame. Norms are
   ``sqrt(. + eps^2)``-regularised (``m = |v|^2 / sqrt(|v|^2 + eps^2)``, smooth and 0 at
-  rest), sines come from ``s / sqrt(s^2 + c^2 + eps^2)`` instead of ``sin(atan2(s, c))``, and
-  the rotation-vector maps switch to Taylor series near 0 with both branches kept finite, so
-  values and gradients are finite everywhere, also at rest and on straight lines. ``eps``
-  (default 1e-6, in metres and radians per step) is the motion resolution: raise it to treat
-  sensor jitter as rest; gradients w.r.t. an action scale like 1 / max(|action|, eps).
+  rest), sines come from ``s / sqrt(s^2 + c^2 + turn_eps^2)`` instead of
+  ``sin(atan2(s, c))``, and the rotation-vector maps switch to Taylor series near 0 with both
+  branches kept finite, so values and gradients are finite everywhere, also at rest and on
+  straight lines. ``eps`` (default 1e-6, in metres and radians per step) is the motion
+  resolution: raise it to treat sensor jitter as rest; gradients w.r.t. an action scale like
+  1 / max(|action|, eps). ``turn_eps`` (default 1e-6, no unit) is the turn resolution.
+* **Resolution against precision.** At the defaults phi resolves micrometres, and a straight
+  move has no plane: ``th2`` of a straight segment follows the rounding of its deltas. For
+  windows that are only known to a precision (a network's estimate), set ``eps`` to that
+  precision and ``turn_eps`` to the sine of the smallest turn that counts; below them, a
+  segment is rest and a turn is none, and phi keeps its previous axes there.
 * **Loss.** ``invariant_loss`` is the squared L2 distance between phi (and its tail) of the
   history with the predicted action(s) appended and of the history with the demonstrated
   action(s) appended, summed over rows and values per sample, then averaged over the batch

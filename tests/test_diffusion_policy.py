@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 
 import numpy as np
 import pytest
@@ -156,6 +157,29 @@ def test_the_chunk_invariant_loss_stays_bounded_at_the_last_noise_level():
 
     assert float(policy.train_scheduler.alphas_cumprod[-1]) < 1e-3  # the division's scale
     assert invar_at(config.diffusion_steps - 1) < 10 * invar_at(0)
+
+
+def test_min_snr_weighting_fades_the_chunk_invariant_loss_out_at_the_noisy_levels():
+    """invariant_snr_clip weighs a sample at level t by min(SNR_t, clip) / clip: the clean
+    levels (SNR above the clip) keep their whole L_invar, the noisiest almost nothing."""
+    rng = np.random.default_rng(0)
+    config = dp_config("dp_reltraj", invariant_weight=1.0)
+    torch.manual_seed(0)
+    policy = build_policy(config, _stats(config, rng)).eval()  # the same noise every call
+    batch = _batch(rng)
+
+    def invar(level: int, snr_clip: float) -> float:
+        policy.config = dataclasses.replace(config, invariant_snr_clip=snr_clip)
+        levels = torch.full((len(batch["actions"]),), level)
+        return float(policy.losses(batch, levels)["invar"].detach())
+
+    a = policy.train_scheduler.alphas_cumprod
+    snr = a / (1 - a)
+    clean_level, last = int(torch.nonzero(snr > 5).max()), config.diffusion_steps - 1
+    assert invar(clean_level, 5.0) == pytest.approx(invar(clean_level, 0.0), rel=1e-6)
+    assert invar(last, 5.0) == pytest.approx(invar(last, 0.0) * float(snr[last]) / 5,
+                                             rel=1e-4)
+    assert invar(last, 5.0) < 1e-5 * invar(last, 0.0)
 
 
 def test_configs_that_cannot_hold_a_window_are_refused():

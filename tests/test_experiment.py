@@ -30,6 +30,7 @@ from legato_drake.experiment.report import overall_table, task_table
 from legato_drake.experiment.runner import plan_runs, trained_runs, training_key
 from legato_drake.experiment.units import TrainUnit, run_unit, unit_key
 from legato_drake.learning.checkpoint import load_checkpoint
+from legato_drake.learning.config import key_fields
 from legato_drake.learning.train import train
 from tests.learning_helpers import synthetic_dataset, tiny_config
 
@@ -166,6 +167,26 @@ def test_training_keys_leave_out_the_rollout_fields_alone(tmp_path):
                     dataclasses.replace(config, chunk_targets="actions")):
         assert training_key("d.hdf5", changed) not in found
     assert training_key("e.hdf5", acting) not in found
+
+
+def test_fields_added_at_a_neutral_value_keep_the_keys_of_older_runs(tmp_path):
+    """A run recorded before L_invar's turn resolution and Min-SNR weighting existed keeps its
+    keys for a config that sets them to what the code did before; other values get new keys."""
+    config = tiny_config()
+    older = {k: v for k, v in config.to_dict().items()
+             if k not in ("invariant_turn_eps", "invariant_snr_clip")}
+    neutral = dataclasses.replace(config, invariant_turn_eps=config.invariant_eps,
+                                  invariant_snr_clip=0.0)
+    assert key_fields(neutral) == older
+    assert training_key("d.hdf5", neutral) == training_key("d.hdf5", older)
+    for changed in (dataclasses.replace(neutral, invariant_turn_eps=0.5),
+                    dataclasses.replace(neutral, invariant_snr_clip=5.0),
+                    dataclasses.replace(neutral, invariant_eps=0.005)):
+        assert training_key("d.hdf5", changed) != training_key("d.hdf5", older)
+    (tmp_path / "runs" / "older").mkdir(parents=True)
+    (tmp_path / "runs" / "older" / "unit.json").write_text(
+        json.dumps({"data": "d.hdf5", "config": older}))
+    assert trained_runs(tmp_path)[training_key("d.hdf5", neutral)].name == "older"
 
 
 def test_tables_mean_range_and_pooled_interval():

@@ -49,6 +49,7 @@ from legato_drake.learning.checkpoint import with_rollout_settings
 from legato_drake.learning.config import (
     ROLLOUT_FIELDS,
     LearningConfig,
+    key_fields,
     load_config,
     save_config,
 )
@@ -152,7 +153,7 @@ def plan_runs(grid: Grid, out: Path) -> list[RunPlan]:
         for method in grid.methods:
             for seed in grid.training.seeds:
                 config = grid.learning_config(method, seed)
-                key = unit_key("run", data.name, config.to_dict())
+                key = unit_key("run", data.name, key_fields(config))
                 folder = out / "runs" / f"{method.name}-{task}-seed{seed}-{key[:10]}"
                 runs.append(RunPlan(method, task, seed, config, data, key, folder))
     return runs
@@ -161,15 +162,15 @@ def plan_runs(grid: Grid, out: Path) -> list[RunPlan]:
 def training_key(data: str, config: LearningConfig | dict) -> str:
     """The key of the training of ``config`` (or a config's ``to_dict``, as a run folder's
     ``unit.json`` records it) on the dataset named ``data``."""
-    fields = config if isinstance(config, dict) else config.to_dict()
     return unit_key("training", data,
-                    {k: v for k, v in fields.items() if k not in ROLLOUT_FIELDS})
+                    {k: v for k, v in key_fields(config).items() if k not in ROLLOUT_FIELDS})
 
 
 def trained_runs(out: Path) -> dict[str, Path]:
     """The finished run folders under ``out/runs``, by their training key (from the config
     as recorded: a run of an older config format, without a field added since, shares
-    nothing, although the field's default may be what it meant)."""
+    nothing, although the field's default may be what it meant, unless the field is one of
+    ``NEUTRAL_VALUES`` at a neutral value)."""
     found = {}
     for unit in sorted((out / "runs").glob("*/unit.json")):
         record = json.loads(unit.read_text())

@@ -237,6 +237,25 @@ class LearningConfig:
         return dataclasses.asdict(self)
 
 
+NEUTRAL_VALUES = {
+    "invariant_turn_eps": lambda fields: fields["invariant_turn_eps"] == fields["invariant_eps"],
+    "invariant_snr_clip": lambda fields: fields["invariant_snr_clip"] == 0,
+}
+"""Fields added after experiments had keyed their results on whole configs, each with a test
+for the values at which it does what the code did before it existed (L_invar's turn
+resolution was its motion resolution; every noise level weighed alike). At those values
+``key_fields`` leaves the field out, so those results keep their keys."""
+
+
+def key_fields(config: LearningConfig | dict) -> dict:
+    """The fields that name what ``config`` (or a config's ``to_dict``) trains in an
+    experiment's unit keys: all of them, but the ``NEUTRAL_VALUES`` fields at a neutral
+    value."""
+    fields = config if isinstance(config, dict) else config.to_dict()
+    return {k: v for k, v in fields.items()
+            if not (k in NEUTRAL_VALUES and NEUTRAL_VALUES[k](fields))}
+
+
 ROLLOUT_FIELDS = ("action_horizon", "inference_steps")
 """Fields that change how a trained network acts, never how it is trained (a Diffusion
 Policy's executed steps per chunk and DDIM steps): an experiment trains once for configs
