@@ -26,11 +26,10 @@ from legato_drake.data.torch_dataset import DemoSequenceDataset
 from legato_drake.invariants import (
     DEFAULT_EPS,
     DEFAULT_TURN_EPS,
-    history_from_observations,
     invariant_loss,
 )
 from legato_drake.learning.checkpoint import load_checkpoint
-from legato_drake.learning.config import LearningConfig, load_config
+from legato_drake.learning.config import load_config
 from legato_drake.learning.diffusion import DiffusionPolicy, training_chunks
 from legato_drake.learning.registry import build_policy
 from legato_drake.learning.train import dataset_stats
@@ -44,30 +43,26 @@ def gradient_norm(loss: torch.Tensor, params: list[torch.nn.Parameter]) -> float
     return float(torch.sqrt(sum((g ** 2).sum() for g in grads if g is not None)))
 
 
-def demonstration(batch: dict, config: LearningConfig) -> tuple[torch.Tensor, torch.Tensor]:
+def demonstration(policy: DiffusionPolicy, batch: dict) -> tuple[torch.Tensor, torch.Tensor]:
     """The batch's demonstrated history (B, T, 6) and chunk (B, P, 7), as the loss reads them."""
-    last = config.obs_horizon - 1
-    history = history_from_observations(batch["obs"]["delta_positions"][:, last],
-                                        batch["obs"]["delta_eulers"][:, last])
-    return history, training_chunks(batch, last, config.pred_horizon, config.chunk_targets)
+    cfg = policy.config
+    return (policy.demonstrated_history(batch),
+            training_chunks(batch, cfg.obs_horizon - 1, cfg.pred_horizon, cfg.chunk_targets))
 
 
 @torch.no_grad()
 def clean_chunk_error(policy: DiffusionPolicy, batch: dict, level: int) -> tuple[float, float]:
     """RMS per step (mm, mrad) of the pose deltas of the clean chunk the policy's rollout
     network implies at ``level`` against the demonstrated chunk (the same noise for all)."""
-    cfg = policy.config
-    chunk = demonstration(batch, cfg)[1]
+    chunk = demonstration(policy, batch)[1]
     x0 = policy._scale(chunk)
     t = torch.full((len(x0),), level)
     noisy = policy.train_scheduler.add_noise(
         x0, torch.randn(x0.shape, generator=torch.Generator().manual_seed(1)), t)
     net = policy.ema
     predicted = net["unet"](noisy, t, net["conditioner"](
-        {k: v[:, :cfg.obs_horizon] for k, v in batch["obs"].items()}))
-    a = policy.train_scheduler.alphas_cumprod[level]
-    clean = ((noisy - (1 - a).sqrt() * predicted) / a.sqrt()).clamp(-1.0, 1.0)
-    error = policy._unscale(clean)[..., :6] - chunk[..., :6]
+        {k: v[:, :policy.config.obs_horizon] for k, v in batch["obs"].items()}))
+    error = policy._unscale(policy.clean_chunk(noisy, predicted, t))[..., :6] - chunk[..., :6]
     return (float(error[..., :3].pow(2).mean().sqrt()) * 1e3,
             float(error[..., 3:].pow(2).mean().sqrt()) * 1e3)
 
@@ -87,9 +82,10 @@ def rows(policy: DiffusionPolicy, batch: dict, weight: float, label: str) -> lis
     return out
 
 
-def floor_rows(batch: dict, config: LearningConfig) -> list[list]:
+def floor_rows(policy: DiffusionPolicy, batch: dict) -> list[list]:
     """L_invar of the demonstrated chunks perturbed by sigma, per resolution."""
-    history, chunk = demonstration(batch, config)
+    config = policy.config
+    history, chunk = demonstration(policy, batch)
     demo = chunk[..., :6].double()
     generator = torch.Generator().manual_seed(2)
     noise = torch.randn(demo.shape, generator=generator, dtype=demo.dtype)
@@ -119,8 +115,8 @@ def main() -> None:
     data = DemoSequenceDataset(args.data, config.dataset_keys, config.seq_length, "train")
     batch = next(iter(DataLoader(data, batch_size=args.batch, shuffle=True,
                                  generator=torch.Generator().manual_seed(0))))
-    table = rows(build_policy(config, dataset_stats(args.data, config)), batch, args.weight,
-                 "initial")
+    initial = build_policy(config, dataset_stats(args.data, config))
+    table = rows(initial, batch, args.weight, "initial")
     if args.checkpoint:
         trained = load_checkpoint(args.checkpoint).policy
         trained.config = config
@@ -128,13 +124,13 @@ def main() -> None:
     print(format_table(["network", "level t", "alpha_bar", "clean chunk mm", "mrad",
                         "DDPM loss", "L_invar", "|grad DDPM|",
                         f"|grad {args.weight:g} L_invar|"], table))
-    steps = demonstration(batch, config)[1][..., :6]
+    steps = demonstration(initial, batch)[1][..., :6]
     moves, turns = steps[..., :3].norm(dim=-1), steps[..., 3:].norm(dim=-1)
     print(f"\nthe demonstrated chunks' steps: {float((moves < 1e-6).double().mean()):.0%} "
           f"at rest, median {float(moves.median()) * 1e3:.1f} mm, "
           f"{float((turns < 1e-6).double().mean()):.0%} without rotation")
     print(format_table(["eps", "turn_eps"] + [f"L_invar, sigma {s:g}" for s in SIGMAS],
-                       floor_rows(batch, config)))
+                       floor_rows(initial, batch)))
 
 
 if __name__ == "__main__":

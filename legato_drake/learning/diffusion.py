@@ -335,23 +335,36 @@ class DiffusionPolicy(PolicyFamily):
         predicted = net["unet"](noisy, t.to(x0.device), net["conditioner"](obs))
         mse = (((predicted - noise) ** 2).mean(-1) * mask).sum() / mask.sum().clamp(min=1)
         if cfg.invariant_weight > 0:
-            a = self.train_scheduler.alphas_cumprod.to(x0)[t][:, None, None]
-            # Clipped to [-1, 1] as the sampler clips it (``clip_sample``): unclipped, the
-            # division by sqrt(a_t) ~ 5e-4 at the last level blows the estimate up, and one
-            # such sample's L_invar gradient outweighed the batch's L2 gradient 10 000-fold.
-            clean = ((noisy - (1 - a).sqrt() * predicted) / a.sqrt()).clamp(-1.0, 1.0)
-            history = history_from_observations(batch["obs"]["delta_positions"][:, To - 1],
-                                                batch["obs"]["delta_eulers"][:, To - 1])
-            invar = invariant_loss(history, self._unscale(clean)[..., :6], chunk[..., :6],
+            clean = self.clean_chunk(noisy, predicted, t)
+            invar = invariant_loss(self.demonstrated_history(batch),
+                                   self._unscale(clean)[..., :6], chunk[..., :6],
                                    eps=cfg.invariant_eps, turn_eps=cfg.invariant_turn_eps,
                                    tail=cfg.invariant_tail, reduction="none")
             if cfg.invariant_snr_clip > 0:
-                snr = a[:, 0, 0] / (1 - a[:, 0, 0])
+                a = self.train_scheduler.alphas_cumprod.to(x0)[t]
+                snr = a / (1 - a)
                 invar = invar * snr.clamp(max=cfg.invariant_snr_clip) / cfg.invariant_snr_clip
             invar = invar.mean()
         else:
             invar = torch.zeros((), dtype=mse.dtype, device=mse.device)
         return {"mse": mse, "invar": invar, "total": mse + cfg.invariant_weight * invar}
+
+    def clean_chunk(self, noisy: torch.Tensor, predicted: torch.Tensor, t: torch.Tensor
+                    ) -> torch.Tensor:
+        """The scaled clean chunk ``(x_t - sqrt(1 - a_t) eps) / sqrt(a_t)`` that the noise
+        estimate ``predicted`` implies at levels ``t`` (B,), differentiable. Clipped to
+        [-1, 1] as the sampler clips it (``clip_sample``): unclipped, the division by
+        sqrt(a_t) ~ 5e-4 at the last level blows the estimate up, and one such sample's L_invar
+        gradient outweighed the batch's L2 gradient 10 000-fold."""
+        a = self.train_scheduler.alphas_cumprod.to(noisy)[t.cpu()][:, None, None]
+        return ((noisy - (1 - a).sqrt() * predicted) / a.sqrt()).clamp(-1.0, 1.0)
+
+    def demonstrated_history(self, batch: Mapping) -> torch.Tensor:
+        """The demonstrated pose deltas (B, T, 6) before a training chunk: the history that
+        L_invar's phi reads ahead of the chunk."""
+        last = self.config.obs_horizon - 1
+        return history_from_observations(batch["obs"]["delta_positions"][:, last],
+                                         batch["obs"]["delta_eulers"][:, last])
 
     @torch.no_grad()
     def after_step(self, step: int) -> None:
