@@ -4,10 +4,12 @@ pool and on a local Ray cluster (the overhead of Ray on one machine).
 Runs --trials lid trials of the shipped LEGATO lid policy on --embodiment (scene seeds from
 10000) as ``experiment`` units (each carries its checkpoint) through each backend with
 --workers workers, after one warm-up trial per worker (process start-up, imports) that is not
-counted. Prints trials per core-hour per backend and their ratio; ``--json`` for machines.
+counted. Prints trials per core-hour per backend and their ratio (``--json FILE`` also
+writes them there).
 Checks that both backends give the same result for every trial. Usage:
 
-    python benchmarks/bench_backends.py [--trials 20] [--workers 2] [--embodiment panda] [--json]
+    python benchmarks/bench_backends.py [--trials 20] [--workers 2] [--embodiment panda]
+        [--json FILE]
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from pathlib import Path
 
 from legato_drake.executor import Blob, Executor, ProcessExecutor, RayExecutor
 from legato_drake.experiment.units import TrialUnit, run_unit
@@ -44,7 +47,7 @@ def main() -> None:
     parser.add_argument("--trials", type=int, default=20)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--embodiment", default="panda")
-    parser.add_argument("--json", action="store_true", help="print JSON rows instead")
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the rows there")
     args = parser.parse_args()
     blob = Blob.of(shipped_checkpoint("lid"))
     jobs = units(args.embodiment, range(EVAL_SEED0, EVAL_SEED0 + args.trials), blob)
@@ -60,13 +63,13 @@ def main() -> None:
                                                     (seconds * args.workers), 1)))
     same = outcomes["local"] == outcomes["ray"]
     ratio = rows[1]["trials_per_core_hour"] / rows[0]["trials_per_core_hour"]
-    if args.json:
-        print(json.dumps(dict(rows=rows, ray_over_local=round(ratio, 3), same_results=same)))
-        return
     print(format_table(["backend", "workers", "trials", "wall s", "trials / core-hour"],
                        [list(r.values()) for r in rows]))
     print(f"\nRay / local throughput: {ratio:.2f}; same result for every trial: "
           f"{'yes' if same else 'NO'}")
+    if args.json is not None:
+        args.json.write_text(json.dumps(dict(rows=rows, ray_over_local=round(ratio, 3),
+                                             same_results=same), indent=1))
 
 
 if __name__ == "__main__":

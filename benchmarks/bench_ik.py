@@ -5,15 +5,17 @@ toward a target pose (a sequence of targets 2-15 cm and up to 0.4 rad from home,
 our IK's own integration), from the same joint positions. Drake's solver prints OSQP chatter on
 stdout at many solves; it is silenced at the file-descriptor level here. Usage:
 
-    python benchmarks/bench_ik.py [--steps 2000]
+    python benchmarks/bench_ik.py [--steps 2000] [--json FILE]
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import os
 import time
+from pathlib import Path
 
 import numpy as np
 from pydrake.math import RigidTransform, RotationMatrix
@@ -101,11 +103,16 @@ def bench(name: str, steps: int) -> list:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=2000)
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the rows there")
     args = parser.parse_args()
     rows = [bench(name, args.steps) for name in EMBODIMENTS]
-    print(format_table(["embodiment", "dof", "ours median ms", "ours p95 ms", "bounded QP",
-                        "drake diffik median ms", "drake p95 ms", "drake/ours",
-                        "reference/ours"], rows))
+    headers = ["embodiment", "dof", "ours median ms", "ours p95 ms", "bounded QP",
+               "drake diffik median ms", "drake p95 ms", "drake/ours", "reference/ours"]
+    print(format_table(headers, rows))
+    if args.json is not None:
+        args.json.write_text(json.dumps(dict(steps=args.steps, rows=[
+            dict(embodiment=r[0], dof=r[1], median_ms=r[2], p95_ms=r[3], bounded_qp=r[4],
+                 drake_median_ms=r[5], drake_p95_ms=r[6]) for r in rows]), indent=1))
 
 
 if __name__ == "__main__":

@@ -1,14 +1,15 @@
 """Time phi and L_invar on CPU: batch of 16 windows x 20 steps (float32 torch, plus numpy).
 
-Run ``python benchmarks/bench_invariants.py [--threads N]``; prints one table (median and p95
-microseconds per call over a few hundred calls after warm-up). The default of 2 threads is the
-project's 2-core machine; on a machine whose other core is busy, 1 thread avoids the long
-stalls of a descheduled intra-op worker.
+Run ``python benchmarks/bench_invariants.py [--threads N] [--json FILE]``; prints one table
+(median and p95 microseconds per call over a few hundred calls after warm-up). The default
+of 2 threads is the project's 2-core machine; on a machine whose other core is busy, 1 thread
+avoids the long stalls of a descheduled intra-op worker.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from collections.abc import Callable
@@ -41,7 +42,9 @@ def time_calls(fn: Callable[[], object]) -> tuple[float, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--threads", type=int, default=THREADS, help="torch.set_num_threads")
-    threads = parser.parse_args().threads
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the rows there")
+    args = parser.parse_args()
+    threads = args.threads
     torch.set_num_threads(threads)
     rng = np.random.default_rng(0)
     deltas_np = (rng.normal(size=(BATCH, STEPS, 6)) * 0.02).astype(np.float32)
@@ -78,9 +81,14 @@ def main() -> None:
           f"torch.set_num_threads({threads}), {CALLS} calls after {WARMUP} warm-up")
     print(f"| {'what':<42} | {'median us':>9} | {'p95 us':>8} |")
     print(f"| {'-' * 42} | {'-' * 9}:| {'-' * 7}:|")
+    records = []
     for name, fn in rows:
         median, p95 = time_calls(fn)
         print(f"| {name:<42} | {median:>9.0f} | {p95:>8.0f} |")
+        records.append(dict(what=name, median_us=median, p95_us=p95))
+    if args.json is not None:
+        args.json.write_text(json.dumps(dict(threads=threads, batch=BATCH, steps=STEPS,
+                                             rows=records), indent=1))
 
 
 if __name__ == "__main__":
