@@ -9,7 +9,12 @@ import torch.nn.functional as F  # noqa: N812
 
 from legato_drake.data.derived import observation_sizes
 from legato_drake.data.torch_dataset import DemoSequenceDataset, image_to_tensor
-from legato_drake.learning.encoders import ImageEncoder, SpatialSoftmax, crop_images
+from legato_drake.learning.encoders import (
+    ImageEncoder,
+    SpatialSoftmax,
+    crop_images,
+    resize_images,
+)
 from legato_drake.learning.normalization import OBS_MIN_STD, Normalizer, compute_stats
 from legato_drake.learning.policies import PolicyOutput, RecurrentGMMPolicy
 from tests.learning_helpers import synthetic_dataset, tiny_config
@@ -91,6 +96,32 @@ def test_the_encoder_crops_in_training_not_at_rollout(precision):
         full.eval(), encoder.eval()
         difference = (full(images) - encoder(images)).abs().max()
         assert 0 < difference < 0.1
+
+
+def test_resize_keeps_the_whole_view_and_the_encoder_resizes_before_it_crops():
+    """``image_resize`` scales the whole view (area averaging: a 2x2 block becomes its mean),
+    in training and at rollout alike; the crop then cuts the resized image, so its play is
+    the resized size minus the crop (here 2 px), not 128 minus the crop."""
+    images = torch.arange(16, dtype=torch.float32).reshape(1, 1, 4, 4)
+    torch.testing.assert_close(resize_images(images, 2),
+                               torch.tensor([[[[2.5, 4.5], [10.5, 12.5]]]]))
+    assert resize_images(images, 4) is images
+    torch.manual_seed(0)
+    encoder = ImageEncoder("small", keypoints=8, feature_dim=16, channels=[4, 8], crop=24,
+                           resize=26)
+    frames = torch.rand(4, 1, 32, 32)
+    encoder.eval()
+    out = encoder(frames)
+    encoder.resize, encoder.crop = 0, 0
+    torch.testing.assert_close(encoder(resize_images(frames, 26)[:, :, 1:25, 1:25]), out)
+    encoder.resize, encoder.crop = 26, 24
+    encoder.train()  # a training crop is a random window of the resized image
+    torch.manual_seed(1)
+    crops = crop_images(resize_images(frames, 26), 24, random=True)
+    torch.manual_seed(1)
+    trained = encoder(frames)
+    encoder.resize, encoder.crop = 0, 0
+    torch.testing.assert_close(encoder(crops), trained)
 
 
 def test_small_trunk_keypoints_tell_images_apart_at_initialisation():

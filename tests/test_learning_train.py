@@ -59,6 +59,12 @@ def test_config_errors_name_the_field_and_the_file(tmp_path):
     bad.write_text("image_crop: 200\n")
     with pytest.raises(ConfigError, match="image_crop.*0 .no crop. or 8-128"):
         load_config(bad)
+    bad.write_text("image_resize: 4\n")
+    with pytest.raises(ConfigError, match="image_resize.*0 .no resize. or 8-128"):
+        load_config(bad)
+    bad.write_text("image_resize: 88\nimage_crop: 96\n")
+    with pytest.raises(ConfigError, match=r"image_crop.*at most image_resize \(88\), got 96"):
+        load_config(bad)
     with pytest.raises(ConfigError, match="not found"):
         load_config(tmp_path / "missing.yaml")
     with pytest.raises(ConfigError, match="unknown field 'invariant'"):

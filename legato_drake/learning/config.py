@@ -66,9 +66,14 @@ class LearningConfig:
     """Spatial-softmax keypoints per camera."""
     feature_dim: int = 64
     """Per-camera feature size after the keypoints' linear layer."""
+    image_resize: int = 0
+    """Square size the camera images are scaled to (area averaging) before the crop, in
+    training and at rollout alike; 0 keeps their 128 x 128."""
     image_crop: int = 0
-    """Square crop of the camera images before the encoder: a random one per image in
-    training, the centre one at rollout (robomimic's crop randomizer); 0 keeps them whole."""
+    """Square crop of the camera images before the encoder (after ``image_resize``): a random
+    one per image in training, the centre one at rollout (robomimic's crop randomizer); 0
+    keeps them whole. The crop's play (resized size minus crop) is how far, in pixels, the
+    training images shift: what the policy learns not to see."""
     encoder_precision: str = "float32"
     """``float32`` or ``bfloat16`` (autocast of the image trunk: about 2x faster on CPUs with
     AVX-512 BF16 and on GPUs; slow where the CPU lacks it)."""
@@ -179,8 +184,14 @@ class LearningConfig:
             if getattr(self, name) not in allowed:
                 raise bad(name, f"must be one of {', '.join(allowed)}; got "
                                 f"{getattr(self, name)!r}")
+        if self.image_resize != 0 and not 8 <= self.image_resize <= 128:
+            raise bad("image_resize", f"must be 0 (no resize) or 8-128 pixels, got "
+                                      f"{self.image_resize}")
         if self.image_crop != 0 and not 8 <= self.image_crop <= 128:
             raise bad("image_crop", f"must be 0 (no crop) or 8-128 pixels, got "
+                                    f"{self.image_crop}")
+        if self.image_resize and self.image_crop > self.image_resize:
+            raise bad("image_crop", f"must be at most image_resize ({self.image_resize}), got "
                                     f"{self.image_crop}")
         if any(c < 1 for c in self.encoder_channels) or not self.encoder_channels:
             raise bad("encoder_channels", f"must be positive integers, got "
@@ -240,11 +251,13 @@ class LearningConfig:
 NEUTRAL_VALUES = {
     "invariant_turn_eps": lambda fields: fields["invariant_turn_eps"] == fields["invariant_eps"],
     "invariant_snr_clip": lambda fields: fields["invariant_snr_clip"] == 0,
+    "image_resize": lambda fields: fields["image_resize"] == 0,
 }
 """Fields added after experiments had keyed their results on whole configs, each with a test
 for the values at which it does what the code did before it existed (L_invar's turn
-resolution was its motion resolution; every noise level weighed alike). At those values
-``key_fields`` leaves the field out, so those results keep their keys."""
+resolution was its motion resolution; every noise level weighed alike; images kept at 128 x
+128). At those values ``key_fields`` leaves the field out, so those results keep their
+keys."""
 
 
 def key_fields(config: LearningConfig | dict) -> dict:

@@ -220,9 +220,7 @@ class _Conditioner(nn.Module):
         self.normalizers = nn.ModuleDict({k: Normalizer(stats[k]["mean"], stats[k]["std"])
                                           for k in low_dim_keys})
         self.encoders = nn.ModuleDict({
-            k: ImageEncoder(config.encoder, config.keypoints, config.feature_dim,
-                            config.encoder_channels, config.image_crop,
-                            config.encoder_precision) for k in image_keys})
+            k: ImageEncoder.from_config(config) for k in image_keys})
         self.step_dim = (sum(len(stats[k]["mean"]) for k in low_dim_keys)
                          + config.feature_dim * len(image_keys))
 

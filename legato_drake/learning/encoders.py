@@ -9,8 +9,14 @@ linear layer from the 2K coordinates (robomimic's ``VisualCore``). The images re
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import torch
+import torch.nn.functional as F  # noqa: N812 - the usual torch name
 from torch import nn
+
+if TYPE_CHECKING:
+    from legato_drake.learning.config import LearningConfig
 
 
 class BasicBlock(nn.Module):
@@ -87,6 +93,14 @@ class SpatialSoftmax(nn.Module):
         return self.expected_xy(self.project(features))
 
 
+def resize_images(images: torch.Tensor, size: int) -> torch.Tensor:
+    """Images (N, C, H, W) scaled to ``size`` x ``size`` by area averaging: the whole view at
+    a lower resolution (``image_resize``), in training and at rollout alike."""
+    if tuple(images.shape[-2:]) == (size, size):
+        return images
+    return F.interpolate(images, size=(size, size), mode="area")
+
+
 def crop_images(images: torch.Tensor, size: int, random: bool) -> torch.Tensor:
     """Square ``size`` crops of images (N, C, H, W): at a random offset per image
     (``random``, training: robomimic's crop randomizer) or at the centre (rollout). The one
@@ -110,15 +124,16 @@ def crop_images(images: torch.Tensor, size: int, random: bool) -> torch.Tensor:
 class ImageEncoder(nn.Module):
     """One camera's encoder: (B, 1, H, W) in [0, 1] -> (B, feature_dim).
 
-    ``crop`` (0: none) crops the images first (``crop_images``: random while training,
-    centred at rollout). The convolutions run channels-last (twice as fast as channels-first
+    ``resize`` (0: none) scales the images to that size first (``resize_images``), then
+    ``crop`` (0: none) crops them (``crop_images``: random while training, centred at
+    rollout). The convolutions run channels-last (twice as fast as channels-first
     on this project's CPUs, measured by ``benchmarks/bench_training_step.py``) and, with
     ``precision="bfloat16"``, under bfloat16 autocast (twice again where the CPU has
     AVX-512 BF16; the trunk only: the keypoints and everything after stay float32)."""
 
     def __init__(self, trunk: str = "resnet18", keypoints: int = 32, feature_dim: int = 64,
                  channels: list[int] | None = None, crop: int = 0,
-                 precision: str = "float32"):
+                 precision: str = "float32", resize: int = 0):
         super().__init__()
         if trunk == "resnet18":
             self.trunk, out = resnet18_trunk(1)
@@ -126,11 +141,20 @@ class ImageEncoder(nn.Module):
             self.trunk, out = small_trunk(list(channels or [16, 32, 32]), 1)
         self.keypoints = SpatialSoftmax(out, keypoints)
         self.linear = nn.Linear(2 * keypoints, feature_dim)
-        self.crop = crop
+        self.resize, self.crop = resize, crop
         self.precision = precision
         self.to(memory_format=torch.channels_last)
 
+    @classmethod
+    def from_config(cls, config: LearningConfig) -> ImageEncoder:
+        """The encoder of one camera as ``config`` describes it."""
+        return cls(config.encoder, config.keypoints, config.feature_dim,
+                   config.encoder_channels, config.image_crop, config.encoder_precision,
+                   config.image_resize)
+
     def forward(self, image: torch.Tensor) -> torch.Tensor:
+        if self.resize:
+            image = resize_images(image, self.resize)
         if self.crop:
             image = crop_images(image, self.crop, random=self.training)
         image = image.contiguous(memory_format=torch.channels_last)

@@ -101,9 +101,7 @@ class RecurrentGMMPolicy(PolicyFamily):
                             for s in ("mean", "std")))
             for k in (*self.low_dim_keys, "actions")})
         self.encoders = nn.ModuleDict({
-            k: ImageEncoder(config.encoder, config.keypoints, config.feature_dim,
-                            config.encoder_channels, config.image_crop,
-                            config.encoder_precision) for k in self.image_keys})
+            k: ImageEncoder.from_config(config) for k in self.image_keys})
         in_dim = sum(len(np.asarray(stats[k]["mean"])[self._columns(k)])
                      for k in self.low_dim_keys)
         in_dim += config.feature_dim * len(self.image_keys)
