@@ -1,0 +1,113 @@
+"""How well a LEGATO or BC-RNN checkpoint fits its demonstrations, open loop, and how much an
+image policy's action depends on where things are in its frames.
+
+    python scripts/legato_fit.py RUN/selected.pt DATA.hdf5 [--split valid] [--windows 100]
+                                 [--shifts 4,10,20]
+
+For ``--windows`` random windows of ``seq_length`` steps of the demos in ``--split``
+(seeded), the policy reads the window's observations as it would at rollout (evaluation
+mode: the centre crop, the LSTM started afresh at the window's start) and its low-noise
+action at every step is compared with the recorded one. The script prints, over those steps:
+
+* the translation error of the pose delta (median and 90th percentile, mm) beside the
+  demonstration's own step (median, mm);
+* the rotation error (the Euler-delta difference's norm, degrees);
+* how often the grasp commands agree.
+
+With ``--shifts`` (image checkpoints only), every frame of a window is also translated by k
+pixels (one random direction per window, the border repeated) and the script prints how far
+the predicted translation moves (median and 90th percentile, mm). A policy that must find a
+handle in its view should answer a shift of its view; one whose action hardly changes has
+learned to ignore where things are (the random crop's play teaches that invariance).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from legato_drake.data.layout import IMAGE_KEYS
+from legato_drake.data.torch_dataset import SPLITS, DemoSequenceDataset
+from legato_drake.learning.checkpoint import load_checkpoint
+from legato_drake.learning.policies import RecurrentGMMPolicy
+
+
+def shift_frames(frames: torch.Tensor, dy: int, dx: int) -> torch.Tensor:
+    """Frames (..., H, W) translated by (dy, dx) pixels, the border pixels repeated."""
+    H, W = frames.shape[-2:]
+    rows = (torch.arange(H) - dy).clamp(0, H - 1)
+    cols = (torch.arange(W) - dx).clamp(0, W - 1)
+    return frames[..., rows, :][..., cols]
+
+
+def predict(policy: RecurrentGMMPolicy, obs: dict[str, torch.Tensor]) -> torch.Tensor:
+    """The low-noise actions (T, 7) of one window's observations (T, ...)."""
+    out, _ = policy({k: v[None] for k, v in obs.items()})
+    return policy.mode_action(out)[0]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("checkpoint", type=Path, help="a LEGATO or BC-RNN checkpoint")
+    parser.add_argument("data", type=Path, help="its demonstrations (HDF5)")
+    parser.add_argument("--split", choices=SPLITS, default="valid")
+    parser.add_argument("--windows", type=int, default=100, help="windows sampled (100)")
+    parser.add_argument("--shifts", default="",
+                        help="comma-separated pixel shifts of the frames, e.g. 4,10,20 "
+                             "(image checkpoints only)")
+    args = parser.parse_args()
+    try:
+        shifts = [int(s) for s in args.shifts.split(",") if s.strip()]
+    except ValueError:
+        parser.error(f"--shifts takes comma-separated integers, got {args.shifts!r}")
+    torch.set_num_threads(1)
+    ckpt = load_checkpoint(args.checkpoint)
+    policy, cfg = ckpt.policy, ckpt.config
+    if not isinstance(policy, RecurrentGMMPolicy):
+        parser.error(f"{args.checkpoint} is a {cfg.algo} checkpoint, not LEGATO or BC-RNN "
+                     f"(scripts/chunk_fit.py fits Diffusion Policy checkpoints)")
+    image_keys = [k for k in cfg.obs_keys if k in IMAGE_KEYS]
+    if shifts and not image_keys:
+        parser.error(f"--shifts needs an image checkpoint; {args.checkpoint} reads "
+                     f"{', '.join(cfg.obs_keys)}")
+    policy.eval()
+    data = DemoSequenceDataset(args.data, cfg.obs_keys, cfg.seq_length, args.split)
+    rng = np.random.default_rng(0)
+    picks = rng.permutation(len(data))[:args.windows]
+    trans, rot, step, agree = [], [], [], []
+    moved: dict[int, list[float]] = {k: [] for k in shifts}
+    with torch.no_grad():
+        for i in picks:
+            item = data[int(i)]
+            mask = item["pad_mask"].numpy()
+            shown = item["actions"].double().numpy()[mask]
+            acted = predict(policy, item["obs"]).double().numpy()[mask]
+            trans += list(1000 * np.linalg.norm(acted[:, :3] - shown[:, :3], axis=1))
+            rot += list(np.degrees(np.linalg.norm(acted[:, 3:6] - shown[:, 3:6], axis=1)))
+            step += list(1000 * np.linalg.norm(shown[:, :3], axis=1))
+            agree += list(acted[:, 6] == (shown[:, 6] > 0.5))
+            angle = rng.uniform(0, 2 * np.pi)
+            for k in shifts:
+                dy, dx = round(k * np.sin(angle)), round(k * np.cos(angle))
+                obs = {key: shift_frames(v, dy, dx) if key in image_keys else v
+                       for key, v in item["obs"].items()}
+                shifted = predict(policy, obs).double().numpy()[mask]
+                moved[k] += list(1000 * np.linalg.norm(shifted[:, :3] - acted[:, :3], axis=1))
+    print(f"{args.checkpoint} on the {args.split} demos of {args.data}: {len(picks)} windows, "
+          f"{len(trans)} steps")
+    print(f"  translation error median {np.median(trans):.2f} mm, 90th percentile "
+          f"{np.percentile(trans, 90):.2f} mm (the demonstrated step: median "
+          f"{np.median(step):.2f} mm)")
+    print(f"  rotation error median {np.median(rot):.2f} deg, 90th percentile "
+          f"{np.percentile(rot, 90):.2f} deg")
+    print(f"  grasp agreement {np.mean(agree):.3f}")
+    for k in shifts:
+        print(f"  frames shifted {k} px: the translation moves median {np.median(moved[k]):.2f}"
+              f" mm, 90th percentile {np.percentile(moved[k], 90):.2f} mm")
+
+
+if __name__ == "__main__":
+    main()
