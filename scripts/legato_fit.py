@@ -2,7 +2,7 @@
 image policy's action depends on where things are in its frames.
 
     python scripts/legato_fit.py RUN/selected.pt DATA.hdf5 [--split valid] [--windows 100]
-                                 [--shifts 4,10,20]
+                                 [--shifts 4,10,20 | --offsets 5,10,25]
 
 For ``--windows`` random windows of ``seq_length`` steps of the demos in ``--split``
 (seeded), the policy reads the window's observations as it would at rollout (evaluation
@@ -18,7 +18,9 @@ With ``--shifts`` (image checkpoints only), every frame of a window is also tran
 pixels (one random direction per window, the border repeated) and the script prints how far
 the predicted translation moves (median and 90th percentile, mm). A policy that must find a
 handle in its view should answer a shift of its view; one whose action hardly changes has
-learned to ignore where things are (the random crop's play teaches that invariance).
+learned to ignore where things are. ``--offsets`` (state checkpoints reading
+``object_in_tcp``) does the same for a state policy: every object moved k mm in the gripper's
+frame (one random direction per window), the state analogue of a shifted view.
 """
 
 from __future__ import annotations
@@ -43,6 +45,14 @@ def shift_frames(frames: torch.Tensor, dy: int, dx: int) -> torch.Tensor:
     return frames[..., rows, :][..., cols]
 
 
+def offset_objects(object_in_tcp: torch.Tensor, offset: np.ndarray) -> torch.Tensor:
+    """``object_in_tcp`` values (..., 9k) with every body's position moved by ``offset`` (m)."""
+    moved = object_in_tcp.clone()
+    for body in range(moved.shape[-1] // 9):
+        moved[..., 9 * body:9 * body + 3] += torch.as_tensor(offset, dtype=moved.dtype)
+    return moved
+
+
 def predict(policy: RecurrentGMMPolicy, obs: dict[str, torch.Tensor]) -> torch.Tensor:
     """The low-noise actions (T, 7) of one window's observations (T, ...)."""
     out, _ = policy({k: v[None] for k, v in obs.items()})
@@ -58,11 +68,18 @@ def main() -> None:
     parser.add_argument("--shifts", default="",
                         help="comma-separated pixel shifts of the frames, e.g. 4,10,20 "
                              "(image checkpoints only)")
+    parser.add_argument("--offsets", default="",
+                        help="comma-separated object offsets in mm, e.g. 5,10,25 (state "
+                             "checkpoints reading object_in_tcp only)")
     args = parser.parse_args()
     try:
         shifts = [int(s) for s in args.shifts.split(",") if s.strip()]
     except ValueError:
         parser.error(f"--shifts takes comma-separated integers, got {args.shifts!r}")
+    try:
+        offsets = [float(s) for s in args.offsets.split(",") if s.strip()]
+    except ValueError:
+        parser.error(f"--offsets takes comma-separated numbers (mm), got {args.offsets!r}")
     torch.set_num_threads(1)
     ckpt = load_checkpoint(args.checkpoint)
     policy, cfg = ckpt.policy, ckpt.config
@@ -73,12 +90,16 @@ def main() -> None:
     if shifts and not image_keys:
         parser.error(f"--shifts needs an image checkpoint; {args.checkpoint} reads "
                      f"{', '.join(cfg.obs_keys)}")
+    if offsets and "object_in_tcp" not in cfg.obs_keys:
+        parser.error(f"--offsets needs a state checkpoint reading object_in_tcp; "
+                     f"{args.checkpoint} reads {', '.join(cfg.obs_keys)}")
     policy.eval()
     data = DemoSequenceDataset(args.data, cfg.obs_keys, cfg.seq_length, args.split)
     rng = np.random.default_rng(0)
     picks = rng.permutation(len(data))[:args.windows]
     trans, rot, step, agree = [], [], [], []
     moved: dict[int, list[float]] = {k: [] for k in shifts}
+    moved_by_offset: dict[float, list[float]] = {k: [] for k in offsets}
     with torch.no_grad():
         for i in picks:
             item = data[int(i)]
@@ -96,6 +117,14 @@ def main() -> None:
                        for key, v in item["obs"].items()}
                 shifted = predict(policy, obs).double().numpy()[mask]
                 moved[k] += list(1000 * np.linalg.norm(shifted[:, :3] - acted[:, :3], axis=1))
+            direction = rng.normal(size=3) if offsets else np.zeros(3)
+            direction /= max(np.linalg.norm(direction), 1e-12)
+            for k in offsets:
+                obs = {key: offset_objects(v, k / 1000 * direction) if key == "object_in_tcp"
+                       else v for key, v in item["obs"].items()}
+                offset = predict(policy, obs).double().numpy()[mask]
+                moved_by_offset[k] += list(1000 * np.linalg.norm(offset[:, :3] - acted[:, :3],
+                                                                 axis=1))
     print(f"{args.checkpoint} on the {args.split} demos of {args.data}: {len(picks)} windows, "
           f"{len(trans)} steps")
     print(f"  translation error median {np.median(trans):.2f} mm, 90th percentile "
@@ -107,6 +136,11 @@ def main() -> None:
     for k in shifts:
         print(f"  frames shifted {k} px: the translation moves median {np.median(moved[k]):.2f}"
               f" mm, 90th percentile {np.percentile(moved[k], 90):.2f} mm")
+
+    for k in offsets:
+        print(f"  objects moved {k:g} mm: the translation moves median "
+              f"{np.median(moved_by_offset[k]):.2f} mm, 90th percentile "
+              f"{np.percentile(moved_by_offset[k], 90):.2f} mm")
 
 
 if __name__ == "__main__":
