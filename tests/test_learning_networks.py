@@ -219,6 +219,34 @@ def test_invariant_loss_gradient_reaches_the_encoder_and_lstm(mode):
     assert without.losses(batch)["invar"] == 0.0
 
 
+
+def test_the_object_loss_trains_the_encoders_from_the_privileged_poses_and_nothing_else():
+    torch.manual_seed(0)
+    config = tiny_config(obs_mode="image", invariant_weight=0.0, object_aux_weight=2.0)
+    policy = RecurrentGMMPolicy(config, _stats())
+    assert policy.loss_terms == ("nll", "ce", "invar", "aux", "total")
+    batch = _batch(image=16)
+    losses = policy.losses(batch)
+    value = {k: float(v) for k, v in losses.items()}
+    assert value["aux"] > 0
+    assert value["total"] == pytest.approx(value["nll"] + config.grasp_weight * value["ce"]
+                                           + 2.0 * value["aux"], rel=1e-5)
+    losses["aux"].backward()
+    assert policy.encoders["left_gray"].trunk[0].weight.grad.abs().sum() > 0
+    assert policy.object_head.weight.grad.abs().sum() > 0
+    assert policy.rnn.weight_ih_l0.grad is None  # the LSTM and heads are not its business
+    # It regresses the normalised poses: a head that outputs them exactly scores 0.
+    with torch.no_grad():
+        policy.object_head.weight.zero_()
+        policy.object_head.bias.copy_(-policy.object_normalizer.mean
+                                      / policy.object_normalizer.std)
+    zero = {**batch, "obs": {**batch["obs"],
+                             "object_in_tcp": torch.zeros_like(batch["obs"]["object_in_tcp"])}}
+    assert float(policy.losses(zero)["aux"]) == pytest.approx(0.0, abs=1e-6)
+    plain = RecurrentGMMPolicy(tiny_config(obs_mode="image", invariant_weight=0.0), _stats())
+    assert "aux" not in plain.losses(batch) and plain.object_head is None
+
+
 def test_normalizer_round_trip():
     data = np.random.default_rng(1).normal(3.0, [0.1, 2.0, 0.0], (100, 3))
     stats = compute_stats([data])

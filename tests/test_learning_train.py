@@ -65,6 +65,9 @@ def test_config_errors_name_the_field_and_the_file(tmp_path):
     bad.write_text("image_resize: 88\nimage_crop: 96\n")
     with pytest.raises(ConfigError, match=r"image_crop.*at most image_resize \(88\), got 96"):
         load_config(bad)
+    bad.write_text("obs_mode: state\nobject_aux_weight: 1\n")
+    with pytest.raises(ConfigError, match="object_aux_weight.*needs obs_mode image"):
+        load_config(bad)
     with pytest.raises(ConfigError, match="not found"):
         load_config(tmp_path / "missing.yaml")
     with pytest.raises(ConfigError, match="unknown field 'invariant'"):
@@ -108,6 +111,21 @@ def test_training_is_seeded_logged_and_checkpointed(tmp_path, data):
         torch.testing.assert_close(ckpt.policy.state_dict()[name], tensor)
     assert (tmp_path / "a" / "best.pt").is_file()
     assert load_config(tmp_path / "a" / "config.yaml") == config
+
+
+def test_an_image_policy_trains_with_the_object_loss_and_acts_without_the_poses(tmp_path,
+                                                                                data):
+    config = tiny_config(obs_mode="image", steps=10, object_aux_weight=1.0)
+    assert "object_in_tcp" in config.dataset_keys and "object_in_tcp" not in config.obs_keys
+    train(config, data, tmp_path / "run", progress=False)
+    with open(tmp_path / "run" / "log.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert float(rows[0]["aux"]) > 0 and rows[-1]["valid_aux"]
+    ckpt = load_checkpoint(tmp_path / "run" / "last.pt")
+    obs = {k: torch.rand(1, 1, 16, 16) if k.endswith("_gray") else torch.zeros(1, 6)
+           for k in config.obs_keys}
+    action, _ = ckpt.policy.act(obs, ckpt.policy.initial_state())
+    assert action.shape == (1, 1, 7)
 
 
 def test_resume_continues_the_step_count_with_the_same_losses(tmp_path, data):

@@ -74,6 +74,12 @@ class LearningConfig:
     one per image in training, the centre one at rollout (robomimic's crop randomizer); 0
     keeps them whole. The crop's play (resized size minus crop) is how far, in pixels, the
     training images shift: what the policy learns not to see."""
+    object_aux_weight: float = 0.0
+    """Image mode, LEGATO and BC-RNN: the weight of an auxiliary loss, in training only, that
+    regresses the objects' poses in the gripper's frame (``object_in_tcp``, normalised) from
+    the image features by a linear head, so the encoder must find the objects in its views;
+    0: none. The policy still sees only its images at rollout. A remedy to measure for an
+    image policy that barely answers a shifted view (``scripts/legato_fit.py --shifts``)."""
     encoder_precision: str = "float32"
     """``float32`` or ``bfloat16`` (autocast of the image trunk: about 2x faster on CPUs with
     AVX-512 BF16 and on GPUs; slow where the CPU lacks it)."""
@@ -212,9 +218,13 @@ class LearningConfig:
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise bad(name, f"must be a positive number, got {getattr(self, name)}")
         for name in ("weight_decay", "grad_clip", "nll_weight", "grasp_weight",
-                     "invariant_weight", "invariant_snr_clip"):
+                     "invariant_weight", "invariant_snr_clip", "object_aux_weight"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
                 raise bad(name, f"must be a non-negative number, got {getattr(self, name)}")
+        if self.object_aux_weight > 0 and (self.obs_mode != "image"
+                                           or self.algo not in ("legato", "bc_rnn")):
+            raise bad("object_aux_weight", f"needs obs_mode image and algo legato or bc_rnn "
+                                           f"(got {self.obs_mode}, {self.algo}); 0 turns it off")
         if self.history not in range(HISTORY + 1):
             raise bad("history", f"must be 0, 1 or {HISTORY} (pose-delta steps), got "
                                  f"{self.history!r}")
@@ -240,8 +250,10 @@ class LearningConfig:
     @property
     def dataset_keys(self) -> tuple[str, ...]:
         """The observations training reads: the network's, plus the demonstrated pose-delta
-        history that L_invar needs (appendix A) even when the network does not see it."""
-        return (*self.obs_keys, *(k for k in HISTORY_KEYS if k not in self.obs_keys))
+        history that L_invar needs (appendix A) even when the network does not see it, and
+        ``object_in_tcp`` for the auxiliary object loss (``object_aux_weight``)."""
+        aux = ("object_in_tcp",) if self.object_aux_weight > 0 else ()
+        return (*self.obs_keys, *(k for k in HISTORY_KEYS if k not in self.obs_keys), *aux)
 
     def to_dict(self) -> dict:
         """A plain dict (for checkpoints and YAML)."""
@@ -252,12 +264,13 @@ NEUTRAL_VALUES = {
     "invariant_turn_eps": lambda fields: fields["invariant_turn_eps"] == fields["invariant_eps"],
     "invariant_snr_clip": lambda fields: fields["invariant_snr_clip"] == 0,
     "image_resize": lambda fields: fields["image_resize"] == 0,
+    "object_aux_weight": lambda fields: fields["object_aux_weight"] == 0,
 }
 """Fields added after experiments had keyed their results on whole configs, each with a test
 for the values at which it does what the code did before it existed (L_invar's turn
 resolution was its motion resolution; every noise level weighed alike; images kept at 128 x
-128). At those values ``key_fields`` leaves the field out, so those results keep their
-keys."""
+128; no auxiliary object loss). At those values ``key_fields`` leaves the field out, so those
+results keep their keys."""
 
 
 def key_fields(config: LearningConfig | dict) -> dict:

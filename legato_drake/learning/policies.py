@@ -18,6 +18,11 @@ the *predicted* action with those of the history plus the demonstrated action; t
 is the mean of the most likely GMM component (``gmm_mean_of_most_likely_mode``), which is
 differentiable w.r.t. the means, so L_invar trains the heads, the LSTM and the encoders.
 Rollout uses the same low-noise mode.
+
+With ``object_aux_weight`` > 0 (image mode), training adds that weight times the mean squared
+error of a linear head that regresses the normalised ``object_in_tcp`` from the image
+features (the ``aux`` term): privileged supervision that makes the encoder locate the objects.
+The head is not used at rollout.
 """
 
 from __future__ import annotations
@@ -118,6 +123,15 @@ class RecurrentGMMPolicy(PolicyFamily):
         self.means_head = nn.Linear(width, K * self.action_dims)
         self.scales_head = nn.Linear(width, K * self.action_dims)
         self.grasp_head = nn.Linear(width, 2) if config.algo == "legato" else None
+        self.object_head = None
+        if config.object_aux_weight > 0:
+            if "object_in_tcp" not in stats:
+                raise ValueError("normalisation statistics lack object_in_tcp "
+                                 "(object_aux_weight needs it)")
+            target = np.asarray(stats["object_in_tcp"]["mean"])
+            self.object_normalizer = Normalizer(target, np.asarray(stats["object_in_tcp"]["std"]))
+            self.object_head = nn.Linear(config.feature_dim * len(self.image_keys), len(target))
+            self.loss_terms = ("nll", "ce", "invar", "aux", "total")
 
     def _columns(self, key: str) -> slice:
         """The columns of low-dim observation ``key`` the network reads."""
@@ -145,7 +159,12 @@ class RecurrentGMMPolicy(PolicyFamily):
     def forward(self, obs: Mapping[str, torch.Tensor], hidden: Hidden | None = None
                 ) -> tuple[PolicyOutput, Hidden]:
         """The heads' outputs for raw observations (B, T, ...), and the new RNN state."""
-        y, hidden = self.rnn(self.features(obs), hidden)
+        return self._heads(self.features(obs), hidden)
+
+    def _heads(self, features: torch.Tensor, hidden: Hidden | None = None
+               ) -> tuple[PolicyOutput, Hidden]:
+        """The heads' outputs for the LSTM's input features (B, T, F)."""
+        y, hidden = self.rnn(features, hidden)
         y = self.mlp(y)
         B, T = y.shape[:2]
         K, Dm = self.config.gmm_modes, self.action_dims
@@ -174,7 +193,8 @@ class RecurrentGMMPolicy(PolicyFamily):
         cfg = self.config
         obs, actions = batch["obs"], batch["actions"]
         mask = batch["pad_mask"]
-        out, _ = self(obs)
+        features = self.features(obs)
+        out, _ = self._heads(features)
         target = self.normalizers["actions"](actions)[..., :self.action_dims]
         nll = _masked_mean(-out.distribution().log_prob(target), mask)
         if out.grasp_logits is not None:
@@ -195,7 +215,15 @@ class RecurrentGMMPolicy(PolicyFamily):
         else:
             invar = torch.zeros((), dtype=nll.dtype, device=nll.device)
         total = cfg.nll_weight * nll + cfg.grasp_weight * ce + cfg.invariant_weight * invar
-        return {"nll": nll, "ce": ce, "invar": invar, "total": total}
+        terms = {"nll": nll, "ce": ce, "invar": invar}
+        if self.object_head is not None:
+            # The image features lead the LSTM's input (``features``).
+            image_features = features[..., :self.object_head.in_features]
+            error = self.object_head(image_features) - self.object_normalizer(
+                obs["object_in_tcp"])
+            terms["aux"] = _masked_mean(error.pow(2).mean(-1), mask)
+            total = total + cfg.object_aux_weight * terms["aux"]
+        return {**terms, "total": total}
 
     def initial_state(self) -> RecurrentState:
         return RecurrentState(0, None)
