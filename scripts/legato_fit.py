@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from legato_drake.data.derived import VALUES_PER_BODY
 from legato_drake.data.layout import IMAGE_KEYS
 from legato_drake.data.torch_dataset import SPLITS, DemoSequenceDataset
 from legato_drake.learning.checkpoint import load_checkpoint
@@ -47,9 +48,10 @@ def shift_frames(frames: torch.Tensor, dy: int, dx: int) -> torch.Tensor:
 
 def offset_objects(object_in_tcp: torch.Tensor, offset: np.ndarray) -> torch.Tensor:
     """``object_in_tcp`` values (..., 9k) with every body's position moved by ``offset`` (m)."""
+    n = VALUES_PER_BODY["object_in_tcp"]
     moved = object_in_tcp.clone()
-    for body in range(moved.shape[-1] // 9):
-        moved[..., 9 * body:9 * body + 3] += torch.as_tensor(offset, dtype=moved.dtype)
+    for body in range(moved.shape[-1] // n):
+        moved[..., n * body:n * body + 3] += torch.as_tensor(offset, dtype=moved.dtype)
     return moved
 
 
@@ -57,6 +59,14 @@ def predict(policy: RecurrentGMMPolicy, obs: dict[str, torch.Tensor]) -> torch.T
     """The low-noise actions (T, 7) of one window's observations (T, ...)."""
     out, _ = policy({k: v[None] for k, v in obs.items()})
     return policy.mode_action(out)[0]
+
+
+def _numbers(parser: argparse.ArgumentParser, flag: str, text: str, kind: type) -> list:
+    """The comma-separated numbers of ``flag`` (a one-line parser error otherwise)."""
+    try:
+        return [kind(s) for s in text.split(",") if s.strip()]
+    except ValueError:
+        parser.error(f"{flag} takes comma-separated {kind.__name__} values, got {text!r}")
 
 
 def main() -> None:
@@ -72,14 +82,8 @@ def main() -> None:
                         help="comma-separated object offsets in mm, e.g. 5,10,25 (state "
                              "checkpoints reading object_in_tcp only)")
     args = parser.parse_args()
-    try:
-        shifts = [int(s) for s in args.shifts.split(",") if s.strip()]
-    except ValueError:
-        parser.error(f"--shifts takes comma-separated integers, got {args.shifts!r}")
-    try:
-        offsets = [float(s) for s in args.offsets.split(",") if s.strip()]
-    except ValueError:
-        parser.error(f"--offsets takes comma-separated numbers (mm), got {args.offsets!r}")
+    shifts = _numbers(parser, "--shifts", args.shifts, int)
+    offsets = _numbers(parser, "--offsets", args.offsets, float)
     torch.set_num_threads(1)
     ckpt = load_checkpoint(args.checkpoint)
     policy, cfg = ckpt.policy, ckpt.config
@@ -98,8 +102,9 @@ def main() -> None:
     rng = np.random.default_rng(0)
     picks = rng.permutation(len(data))[:args.windows]
     trans, rot, step, agree = [], [], [], []
-    moved: dict[int, list[float]] = {k: [] for k in shifts}
-    moved_by_offset: dict[float, list[float]] = {k: [] for k in offsets}
+    labels = [f"frames shifted {k} px" for k in shifts] + \
+        [f"objects moved {k:g} mm" for k in offsets]
+    moved: dict[str, list[float]] = {label: [] for label in labels}
     with torch.no_grad():
         for i in picks:
             item = data[int(i)]
@@ -110,21 +115,19 @@ def main() -> None:
             rot += list(np.degrees(np.linalg.norm(acted[:, 3:6] - shown[:, 3:6], axis=1)))
             step += list(1000 * np.linalg.norm(shown[:, :3], axis=1))
             agree += list(acted[:, 6] == (shown[:, 6] > 0.5))
+            # One random direction per window for every perturbation of it.
             angle = rng.uniform(0, 2 * np.pi)
-            for k in shifts:
-                dy, dx = round(k * np.sin(angle)), round(k * np.cos(angle))
-                obs = {key: shift_frames(v, dy, dx) if key in image_keys else v
-                       for key, v in item["obs"].items()}
-                shifted = predict(policy, obs).double().numpy()[mask]
-                moved[k] += list(1000 * np.linalg.norm(shifted[:, :3] - acted[:, :3], axis=1))
             direction = rng.normal(size=3) if offsets else np.zeros(3)
             direction /= max(np.linalg.norm(direction), 1e-12)
-            for k in offsets:
-                obs = {key: offset_objects(v, k / 1000 * direction) if key == "object_in_tcp"
-                       else v for key, v in item["obs"].items()}
-                offset = predict(policy, obs).double().numpy()[mask]
-                moved_by_offset[k] += list(1000 * np.linalg.norm(offset[:, :3] - acted[:, :3],
-                                                                 axis=1))
+            perturbed = [{key: shift_frames(v, round(k * np.sin(angle)), round(k * np.cos(angle)))
+                          if key in image_keys else v for key, v in item["obs"].items()}
+                         for k in shifts]
+            perturbed += [{key: offset_objects(v, k / 1000 * direction)
+                           if key == "object_in_tcp" else v for key, v in item["obs"].items()}
+                          for k in offsets]
+            for label, obs in zip(labels, perturbed, strict=True):
+                answer = predict(policy, obs).double().numpy()[mask]
+                moved[label] += list(1000 * np.linalg.norm(answer[:, :3] - acted[:, :3], axis=1))
     print(f"{args.checkpoint} on the {args.split} demos of {args.data}: {len(picks)} windows, "
           f"{len(trans)} steps")
     print(f"  translation error median {np.median(trans):.2f} mm, 90th percentile "
@@ -133,14 +136,9 @@ def main() -> None:
     print(f"  rotation error median {np.median(rot):.2f} deg, 90th percentile "
           f"{np.percentile(rot, 90):.2f} deg")
     print(f"  grasp agreement {np.mean(agree):.3f}")
-    for k in shifts:
-        print(f"  frames shifted {k} px: the translation moves median {np.median(moved[k]):.2f}"
-              f" mm, 90th percentile {np.percentile(moved[k], 90):.2f} mm")
-
-    for k in offsets:
-        print(f"  objects moved {k:g} mm: the translation moves median "
-              f"{np.median(moved_by_offset[k]):.2f} mm, 90th percentile "
-              f"{np.percentile(moved_by_offset[k], 90):.2f} mm")
+    for label, values in moved.items():
+        print(f"  {label}: the translation moves median {np.median(values):.2f} mm, "
+              f"90th percentile {np.percentile(values, 90):.2f} mm")
 
 
 if __name__ == "__main__":

@@ -219,7 +219,6 @@ def test_invariant_loss_gradient_reaches_the_encoder_and_lstm(mode):
     assert without.losses(batch)["invar"] == 0.0
 
 
-
 def test_the_object_loss_trains_the_encoders_from_the_privileged_poses_and_nothing_else():
     torch.manual_seed(0)
     config = tiny_config(obs_mode="image", invariant_weight=0.0, object_aux_weight=2.0)
