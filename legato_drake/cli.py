@@ -60,6 +60,18 @@ def _seconds(value: str) -> float:
     return number
 
 
+def _metres(value: str) -> float:
+    """An argparse type: a non-negative, finite number of metres."""
+    try:
+        number = float(value)
+    except ValueError:
+        number = math.nan
+    if not (math.isfinite(number) and number >= 0):
+        raise argparse.ArgumentTypeError(
+            f"expected a non-negative number of metres, got {value!r}")
+    return number
+
+
 def _names(value: str, registry: dict, kind: str) -> list[str]:
     if value == "all":
         return list(registry)
@@ -410,7 +422,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
                        _names(args.tasks, TASKS, "task"), trials, out,
                        workers=args.workers, replays=args.replays, method=args.method,
                        seed0=seed0, duration=args.duration, overwrite=args.overwrite,
-                       overrides=args.set)
+                       overrides=args.set, max_target_lead=args.max_target_lead)
         trials = doc["trials"]
         png = plot_success(trials, out / f"{doc['method']}.png")
         log.info("wrote %s", results_path(out, doc["method"]))
@@ -677,6 +689,10 @@ def build_parser() -> argparse.ArgumentParser:
                                "--seed0 A --trials B-A+1")
     evaluate.add_argument("--duration", type=_seconds, default=None,
                           help="seconds per trial after homing (default: 40)")
+    evaluate.add_argument("--max-target-lead", type=_metres, default=0.0, metavar="M",
+                          help="bound how far the commanded gripper pose may lead the "
+                               "measured one, in metres (scenario max_target_lead; default "
+                               "0: unbounded)")
     evaluate.add_argument("--plot", nargs="+", metavar="JSON",
                           help="only combine these results files into one plot and table")
     evaluate.add_argument("--set", action="append", metavar="FIELD=VALUE",
@@ -685,8 +701,8 @@ def build_parser() -> argparse.ArgumentParser:
                                "inference_steps=3; the trials run a copy of the checkpoint")
     evaluate.add_argument("--overwrite", action="store_true",
                           help="start OUT/<method>.json afresh; without it, a results file "
-                               "of another checkpoint, --duration, --seed0, --set or trial "
-                               "set is refused")
+                               "of another checkpoint, --duration, --seed0, --set, "
+                               "--max-target-lead or trial set is refused")
     evaluate.set_defaults(func=cmd_evaluate)
     export = verbs.add_parser(
         "export", help="a dataset in LeRobot's v3.0 layout, or for robomimic's image path",

@@ -203,8 +203,12 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
     split = builder.AddNamedSystem("action_split", Demultiplexer([6, 1]))
     builder.Connect(controller.GetOutputPort("action"), split.get_input_port())
 
-    integrator = builder.AddNamedSystem("target_integrator", GripperTargetIntegrator(X_home))
+    lead = scenario.max_target_lead if scenario.controller == "policy" else 0.0
+    integrator = builder.AddNamedSystem("target_integrator", GripperTargetIntegrator(
+        X_home, max_lead=lead, plant=plant, tcp=robot.tcp_frame))
     builder.Connect(split.get_output_port(0), integrator.get_delta_input_port())
+    if lead > 0:
+        builder.Connect(state, integrator.get_plant_state_input_port())
     gripper = builder.AddNamedSystem("gripper_actuation", GripperActuation())
     builder.Connect(split.get_output_port(1), gripper.get_grasp_input_port())
     if scenario.controller == "policy" and controller.obs_mode == "state":

@@ -9,6 +9,7 @@ Example ``scenario.yaml`` (every field is optional; the defaults are shown)::
     checkpoint: ""           # controller: policy runs this trained checkpoint
     seed: 0
     duration: 40.0
+    max_target_lead: 0.0     # policy only: bound on the commanded gripper's lead (metres)
     expert_noise: {position_std: 0.0, rotation_std_deg: 0.0, correlation: 0.8}
     camera: {enabled: true, width: 128, height: 128, fov_y_deg: 120.0}
     recording: {meshcat: false, fps: 30.0}
@@ -116,6 +117,12 @@ class Scenario:
     """Simulated seconds the controller is given after homing (SPEC: 40 s)."""
     stop_on_success: bool = True
     """End the episode as soon as the task's success predicate holds."""
+    max_target_lead: float = 0.0
+    """``controller: policy`` only: how far (metres) the commanded gripper pose may lead the
+    measured gripper; a step that would take it further is shortened along its direction to
+    that distance (``GripperTargetIntegrator``). 0 leaves it unbounded. Where a robot cannot
+    follow, an unbounded target keeps integrating the policy's deltas and runs away (README,
+    Learned policies: 40 cm on Spot)."""
     expert_noise: ExpertNoiseConfig = field(default_factory=ExpertNoiseConfig)
     """Perturbations of ``controller: scripted`` (seeded by ``seed``); none by default."""
     camera: CameraConfig = field(default_factory=CameraConfig)
@@ -156,6 +163,9 @@ class Scenario:
         if not (math.isfinite(self.duration) and self.duration > 0):
             raise ConfigError(f"duration{place} must be a positive number of seconds, got "
                               f"{self.duration!r}")
+        if not (math.isfinite(self.max_target_lead) and self.max_target_lead >= 0):
+            raise ConfigError(f"max_target_lead{place} must be a non-negative number of "
+                              f"metres (0: unbounded), got {self.max_target_lead!r}")
         if self.seed < 0:
             raise ConfigError(f"seed{place} must be a non-negative integer, got {self.seed}")
         cam = self.camera

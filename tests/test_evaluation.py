@@ -90,7 +90,8 @@ def test_training_seeds_and_foreign_results_are_refused(tmp_path, checkpoint):
         load_results(tmp_path / "x.json")
 
 
-def test_a_changed_checkpoint_or_duration_is_not_mixed_in(tmp_path, checkpoint, monkeypatch):
+def test_a_changed_checkpoint_duration_or_target_lead_is_not_mixed_in(tmp_path, checkpoint,
+                                                                     monkeypatch):
     monkeypatch.setattr(evaluation, "run_trial", _fake_trial)
     ckpt = tmp_path / "model.pt"
     ckpt.write_bytes(checkpoint.read_bytes())
@@ -100,6 +101,9 @@ def test_a_changed_checkpoint_or_duration_is_not_mixed_in(tmp_path, checkpoint, 
     assert evaluation.file_sha256(out / "tiny.pt") == doc["checkpoint_sha256"]  # the frozen copy
     with pytest.raises(ConfigError, match="--duration"):
         evaluate(ckpt, ["abstract"], ["lid"], 2, out, duration=9.0, progress=False)
+    with pytest.raises(ConfigError, match="--max-target-lead"):
+        evaluate(ckpt, ["abstract"], ["lid"], 2, out, duration=5.0, progress=False,
+                 max_target_lead=0.03)
     train(tiny_config(steps=3), synthetic_dataset(tmp_path / "d.hdf5", demos=3, length=10,
                                                   images=False), tmp_path / "run",
           progress=False)

@@ -13,7 +13,7 @@ from legato_drake.data.layout import DatasetError
 from legato_drake.errors import ConfigError
 from legato_drake.learning.checkpoint import CheckpointError, load_checkpoint
 from legato_drake.learning.config import apply_overrides, load_config, save_config
-from legato_drake.learning.train import train
+from legato_drake.learning.train import learning_rate, train
 from tests.learning_helpers import synthetic_dataset, tiny_config
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
@@ -64,6 +64,9 @@ def test_config_errors_name_the_field_and_the_file(tmp_path):
         load_config(bad)
     bad.write_text("image_resize: 88\nimage_crop: 96\n")
     with pytest.raises(ConfigError, match=r"image_crop.*at most image_resize \(88\), got 96"):
+        load_config(bad)
+    bad.write_text("lr_schedule: step\n")
+    with pytest.raises(ConfigError, match="lr_schedule.*constant, cosine.*'step'"):
         load_config(bad)
     bad.write_text("obs_mode: state\nobject_aux_weight: 1\n")
     with pytest.raises(ConfigError, match="object_aux_weight.*needs obs_mode image"):
@@ -126,6 +129,22 @@ def test_an_image_policy_trains_with_the_object_loss_and_acts_without_the_poses(
            for k in config.obs_keys}
     action, _ = ckpt.policy.act(obs, ckpt.policy.initial_state())
     assert action.shape == (1, 1, 7)
+
+
+def test_the_cosine_schedule_decays_to_zero_and_is_logged(tmp_path, data):
+    config = tiny_config(steps=20, lr=1e-3, lr_schedule="cosine")
+    assert learning_rate(config, 0) == 1e-3
+    assert learning_rate(config, 10) == pytest.approx(5e-4)
+    assert learning_rate(config, 20) == pytest.approx(0.0)
+    assert learning_rate(tiny_config(steps=20, lr=1e-3), 15) == 1e-3
+    train(config, data, tmp_path / "run", progress=False)
+    with open(tmp_path / "run" / "log.csv", newline="") as f:
+        lrs = [float(row["lr"]) for row in csv.DictReader(f)]
+    assert lrs == pytest.approx([learning_rate(config, k) for k in range(20)])
+    assert all(a > b for a, b in zip(lrs, lrs[1:], strict=False))
+    train(config, data, tmp_path / "split", steps=10, progress=False)
+    train(config, data, tmp_path / "split", resume=True, progress=False)
+    assert _losses(tmp_path / "split") == pytest.approx(_losses(tmp_path / "run"), rel=1e-5)
 
 
 def test_resume_continues_the_step_count_with_the_same_losses(tmp_path, data):

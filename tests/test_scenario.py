@@ -28,6 +28,7 @@ def test_yaml_round_trip(tmp_path):
     ("task: juggling\n", ["task 'juggling'", "lid"]),
     ("controller: magic\n", ["controller 'magic'", "scripted"]),
     ("duration: -1\n", ["duration", "positive"]),
+    ("max_target_lead: -0.01\n", ["max_target_lead", "non-negative", "0: unbounded"]),
     ("camera: {fov_y_deg: 200}\n", ["camera.fov_y_deg"]),
     ("camera: {model: fish}\n", ["camera.model", "pinhole", "fisheye", "'fish'"]),
     ("camera: {model: fisheye, fisheye_fov_deg: 20}\n", ["camera.fisheye_fov_deg"]),

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
+from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.analysis import Simulator
 
@@ -61,3 +63,35 @@ def test_nan_delta_holds_the_commanded_pose():
     pose, v = _run([np.nan, 0, 0, 0, 0, 0], T0 + 1.0)
     assert pose_error(pose, conventions.START_POSE) < (1e-9, 1e-9)
     assert np.all(v == 0)
+
+
+def test_a_bounded_target_stays_within_its_lead_of_the_measured_gripper(abstract_plant):
+    """With ``max_lead`` the commanded position never leads the measured TCP by more than the
+    bound (here the robot never moves: its plant state is fixed), along the line to where
+    the deltas aimed it, with the commanded orientation; without it, it runs away."""
+    plant, _, robot, _ = abstract_plant
+    X_measured = robot.tcp_frame.CalcPoseInWorld(plant.CreateDefaultContext())
+    delta = np.array([0.02, 0.0, 0.0, 0.0, 0.0, 0.05])
+    end = T0 + conventions.TARGET_OFFSET + 9 * 0.1 + 0.05  # ten steps
+    commanded = {}
+    for lead in (0.0, 0.03):
+        system = GripperTargetIntegrator(X_measured, max_lead=lead, plant=plant,
+                                         tcp=robot.tcp_frame)
+        context = system.CreateDefaultContext()
+        system.get_delta_input_port().FixValue(context, delta)
+        if lead:
+            system.get_plant_state_input_port().FixValue(
+                context, plant.GetPositionsAndVelocities(plant.CreateDefaultContext()))
+        Simulator(system, context).AdvanceTo(end)
+        commanded[lead] = system.GetOutputPort("X_WG_commanded").Eval(context)
+    unbounded = commanded[0.0][:3] - X_measured.translation()
+    bounded = commanded[0.03][:3] - X_measured.translation()
+    assert np.linalg.norm(unbounded) > 0.15
+    assert np.linalg.norm(bounded) == pytest.approx(0.03, abs=1e-9)
+    # the orientation is what the deltas commanded: ten yaw steps of 0.05 rad
+    start_yaw = RollPitchYaw(conventions.START_POSE.rotation()).yaw_angle()
+    bounded_yaw = RollPitchYaw(Quaternion(commanded[0.03][3:7] / np.linalg.norm(
+        commanded[0.03][3:7]))).yaw_angle()
+    assert np.isclose(np.angle(np.exp(1j * (bounded_yaw - start_yaw))), 0.5, atol=1e-6)
+    with pytest.raises(ValueError, match="plant"):
+        GripperTargetIntegrator(X_measured, max_lead=0.03)

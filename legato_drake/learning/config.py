@@ -24,6 +24,8 @@ PRECISIONS = ("float32", "bfloat16")
 """``encoder_precision``'s values."""
 CHUNK_TARGETS = ("planned", "actions")
 """``chunk_targets``' values."""
+LR_SCHEDULES = ("constant", "cosine")
+"""``lr_schedule``'s values."""
 STATE_KEYS = ("tcp_commanded", "tcp_measured", "object", "object_in_tcp", "fingers")
 """Privileged observations a ``state`` policy may use: what the EpisodeRecorder records and
 what ``data.derived`` computes from it."""
@@ -94,6 +96,10 @@ class LearningConfig:
     rollout too."""
     batch_size: int = 16
     lr: float = 1e-4
+    lr_schedule: str = "constant"
+    """``constant``: ``lr`` throughout; ``cosine``: from ``lr`` down to 0 at ``steps`` along a
+    half cosine, so that the last snapshots are the settled end of training rather than a
+    draw from the noise of constant-rate steps (``learning.train.learning_rate``)."""
     weight_decay: float = 0.0
     grad_clip: float = 0.0
     """Clip the gradient norm to this (0: no clipping)."""
@@ -212,6 +218,9 @@ class LearningConfig:
         if self.inference_steps > self.diffusion_steps:
             raise bad("inference_steps", f"must be at most diffusion_steps "
                                          f"({self.diffusion_steps}), got {self.inference_steps}")
+        if self.lr_schedule not in LR_SCHEDULES:
+            raise bad("lr_schedule", f"must be one of {', '.join(LR_SCHEDULES)}, got "
+                                     f"{self.lr_schedule!r}")
         if not (math.isfinite(self.ema_decay) and 0 <= self.ema_decay < 1):
             raise bad("ema_decay", f"must be in [0, 1), got {self.ema_decay}")
         for name in ("lr", "min_std", "invariant_eps", "invariant_turn_eps"):
@@ -265,12 +274,13 @@ NEUTRAL_VALUES = {
     "invariant_snr_clip": lambda fields: fields["invariant_snr_clip"] == 0,
     "image_resize": lambda fields: fields["image_resize"] == 0,
     "object_aux_weight": lambda fields: fields["object_aux_weight"] == 0,
+    "lr_schedule": lambda fields: fields["lr_schedule"] == "constant",
 }
 """Fields added after experiments had keyed their results on whole configs, each with a test
 for the values at which it does what the code did before it existed (L_invar's turn
 resolution was its motion resolution; every noise level weighed alike; images kept at 128 x
-128; no auxiliary object loss). At those values ``key_fields`` leaves the field out, so those
-results keep their keys."""
+128; no auxiliary object loss; a constant learning rate). At those values ``key_fields``
+leaves the field out, so those results keep their keys."""
 
 
 def key_fields(config: LearningConfig | dict) -> dict:

@@ -118,6 +118,15 @@ def dataset_stats(path: Path, config: LearningConfig) -> dict[str, dict[str, np.
     return stats
 
 
+def learning_rate(config: LearningConfig, step: int) -> float:
+    """The learning rate of the step after ``step`` steps (``config.lr_schedule``): a
+    function of the step alone, so that a resumed run continues the schedule exactly."""
+    if config.lr_schedule == "cosine":
+        return config.lr * 0.5 * (1.0 + math.cos(math.pi * min(step, config.steps)
+                                                 / config.steps))
+    return config.lr
+
+
 def _to_device(batch: dict, device: str) -> dict:
     """The batch on ``device`` (from pinned memory on a GPU: the copy overlaps the step)."""
     def move(v: torch.Tensor) -> torch.Tensor:
@@ -266,10 +275,13 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
             # before the step: the weights (and the checkpoints) stay finite
             raise FloatingPointError(f"non-finite loss or gradient at step {ckpt.step + 1}: "
                                      f"{row}, gradient norm {float(grad_norm)}")
+        lr = learning_rate(config, ckpt.step)
+        for group in optimizer.param_groups:
+            group["lr"] = lr
         optimizer.step()
         ckpt.step += 1
         policy.after_step(ckpt.step)
-        row.update(step=ckpt.step, lr=config.lr)
+        row.update(step=ckpt.step, lr=lr)
         if valid is not None and ckpt.step % config.valid_every == 0:
             scores = validation_losses(policy, valid, config, device)
             row.update({f"valid_{k}": v for k, v in scores.items()})

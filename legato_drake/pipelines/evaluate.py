@@ -8,14 +8,15 @@ checkpoint records and which are checked). After every trial the results file
 ``OUT/<method>.json`` (and ``OUT/<method>.csv``) is rewritten atomically, so an interrupted
 evaluation loses at most the trials in flight and a second run skips the trials already done
 (it refuses to resume with another checkpoint, identified by its SHA-256, or another
-``duration``). Trials load a frozen copy of the checkpoint, ``OUT/<method>.pt``. A trial that
-raises is recorded as a failure with the error as its reason.
+``duration`` or ``max_target_lead``). Trials load a frozen copy of the checkpoint,
+``OUT/<method>.pt``. A trial that raises is recorded as a failure with the error as its reason.
 
 ``OUT/<method>.json``::
 
     {"format": "legato_drake.evaluation", "method": str, "checkpoint": str,
      "checkpoint_sha256": str, "checkpoint_step": int,
      "config": {...the policy's LearningConfig...}, "seed0": int, "duration": float | None,
+     "max_target_lead": float,
      "trials": [{"method", "embodiment", "task", "trial", "seed", "success", "reason",
                  "success_time", "episode_time", "wall_time", "html", "metrics"}, ...]}
 """
@@ -63,10 +64,12 @@ class TrialJob:
 
 
 def trial_scenario(embodiment: str, task: str, seed: int, checkpoint: str | Path,
-                   camera: bool, duration: float | None) -> Scenario:
+                   camera: bool, duration: float | None,
+                   max_target_lead: float = 0.0) -> Scenario:
     """The scenario of one trial: the checkpoint's policy in the scene of ``seed``."""
     scenario = Scenario(embodiment=embodiment, task=task, controller="policy",
-                        checkpoint=str(checkpoint), seed=seed)
+                        checkpoint=str(checkpoint), seed=seed,
+                        max_target_lead=max_target_lead)
     scenario.camera.enabled = camera
     if duration is not None:
         scenario.duration = duration
@@ -130,13 +133,14 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
              method: str | None = None, seed0: int = EVAL_SEED0,
              duration: float | None = None, progress: bool | None = None,
              overwrite: bool = False, executor: Executor | None = None,
-             overrides: list[str] | None = None) -> dict:
+             overrides: list[str] | None = None, max_target_lead: float = 0.0) -> dict:
     """Runs ``trials`` closed-loop trials of the policy per embodiment and task (skipping
     those already in the results file), in ``workers`` processes (or on ``executor``);
     returns the results document, rewritten after every trial. The first ``replays`` trials
     of each cell also get a Meshcat HTML replay in ``OUT/replays/``. ``overrides``
     (``["inference_steps=3"]``) change how the policy acts (its config's ``ROLLOUT_FIELDS``
-    only). A results file of another checkpoint, ``duration``, ``seed0``, rollout settings
+    only). ``max_target_lead`` bounds the commanded gripper's lead (``Scenario``). A results
+    file of another checkpoint, ``duration``, ``seed0``, rollout settings, target lead
     or trial set is refused unless ``overwrite`` (which starts it afresh)."""
     from legato_drake.learning.checkpoint import (  # torch: only when needed
         load_checkpoint,
@@ -160,13 +164,14 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
     doc = {"format": FORMAT, "method": method, "checkpoint": str(checkpoint),
            "checkpoint_sha256": sha, "checkpoint_step": ckpt.step,
            "config": config.to_dict(), "seed0": seed0, "duration": duration,
+           "max_target_lead": max_target_lead,
            "rollout": {name: getattr(config, name) for name in ROLLOUT_FIELDS},
            "trials": []}
     if path.is_file() and not overwrite:
-        old = load_results(path)
+        old = {"max_target_lead": 0.0, **load_results(path)}  # older files: unbounded
         for key, what in (("checkpoint", "checkpoint"), ("checkpoint_sha256", "checkpoint"),
                           ("duration", "--duration"), ("seed0", "--seed0"),
-                          ("rollout", "--set")):
+                          ("rollout", "--set"), ("max_target_lead", "--max-target-lead")):
             if old.get(key, doc[key]) != doc[key]:
                 raise ConfigError(f"{path} holds results of another {what} ({key} "
                                   f"{old.get(key)}, not {doc[key]}): use another --method or "
@@ -195,7 +200,8 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
                 html = (out / "replays" / f"{method}-{embodiment}-{task}-seed{seed}.html"
                         if i < replays else None)
                 scenario = trial_scenario(embodiment, task, seed, frozen,
-                                          ckpt.config.obs_mode == "image", duration)
+                                          ckpt.config.obs_mode == "image", duration,
+                                          max_target_lead)
                 jobs.append(TrialJob(method, i, scenario, html))
     if len(jobs) < len(embodiments) * len(tasks) * len(seeds):
         log.info("%s: %d trials already done, %d to run", path, len(doc["trials"]), len(jobs))

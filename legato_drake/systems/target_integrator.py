@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import Frame
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 from legato_drake import conventions
@@ -27,9 +29,16 @@ class GripperTargetIntegrator(LeafSystem):
     and the target moves from the previous to the new commanded pose at constant velocity
     over the period, so the IK sees a continuous target and a feed-forward velocity.
 
+    With ``max_lead`` > 0 (metres) and the ``tcp`` frame of ``plant``, the commanded position
+    never leads the measured TCP by more than ``max_lead``: a new commanded pose further away
+    is pulled back along the line from the measured TCP to it (the orientation as commanded).
+    Without it, a robot that cannot follow lets the target run away while a closed-loop policy
+    keeps commanding steps towards a goal it does not reach.
+
     Input ports:
         delta (6): [dx, dy, dz, droll, dpitch, dyaw]. A non-finite delta is ignored (the
         commanded pose holds).
+        plant_state (only with ``max_lead``): the plant's full state.
 
     Output ports:
         X_WG_target (RigidTransform): target TCP pose in the world.
@@ -42,12 +51,21 @@ class GripperTargetIntegrator(LeafSystem):
     def __init__(self, X_home: RigidTransform, X_start: RigidTransform = conventions.START_POSE,
                  t_start: float = conventions.HOMING_DURATION,
                  period: float = conventions.POLICY_PERIOD,
-                 offset: float = conventions.TARGET_OFFSET):
+                 offset: float = conventions.TARGET_OFFSET, max_lead: float = 0.0,
+                 plant: MultibodyPlant | None = None, tcp: Frame | None = None):
         super().__init__()
         self._X_home, self._X_start = X_home, X_start
         self._t_start, self._period = t_start, period
         self._decoded: tuple[bytes, RigidTransform, RigidTransform] | None = None
         self._delta = self.DeclareVectorInputPort("delta", 6)
+        self._max_lead = max_lead
+        if max_lead > 0:
+            if plant is None or tcp is None:
+                raise ValueError("max_lead needs the plant and its TCP frame")
+            self._plant, self._tcp = plant, tcp
+            self._plant_context = plant.CreateDefaultContext()
+            self._plant_state = self.DeclareVectorInputPort(
+                "plant_state", plant.num_positions() + plant.num_velocities())
         start = pose_to_vector(X_start)
         self._state = self.DeclareDiscreteState(np.concatenate([start, start, [t_start]]))
         self.DeclarePeriodicDiscreteUpdateEvent(period, t_start + offset, self._step)
@@ -60,11 +78,27 @@ class GripperTargetIntegrator(LeafSystem):
     def get_delta_input_port(self):
         return self._delta
 
+    def get_plant_state_input_port(self):
+        return self._plant_state
+
+    def _bounded(self, context: Context, X: RigidTransform) -> RigidTransform:
+        """``X`` with its position pulled back to within ``max_lead`` of the measured TCP."""
+        q = self._plant_state.Eval(context)[:self._plant.num_positions()]
+        self._plant.SetPositions(self._plant_context, q)
+        measured = self._tcp.CalcPoseInWorld(self._plant_context).translation()
+        lead = X.translation() - measured
+        distance = float(np.linalg.norm(lead))
+        if distance <= self._max_lead:
+            return X
+        return RigidTransform(X.rotation(), measured + lead * (self._max_lead / distance))
+
     def _step(self, context: Context, discrete_state: DiscreteValues) -> None:
         x = context.get_discrete_state(self._state).get_value()
         delta = self._delta.Eval(context)
         X_next = vector_to_pose(x[7:14])
         X_new = apply_delta(X_next, delta) if np.all(np.isfinite(delta)) else X_next
+        if self._max_lead > 0:
+            X_new = self._bounded(context, X_new)
         discrete_state.set_value(self._state, np.concatenate(
             [pose_to_vector(X_next), pose_to_vector(X_new), [context.get_time()]]))
 
