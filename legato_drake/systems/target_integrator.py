@@ -69,9 +69,13 @@ class GripperTargetIntegrator(LeafSystem):
         start = pose_to_vector(X_start)
         self._state = self.DeclareDiscreteState(np.concatenate([start, start, [t_start]]))
         self.DeclarePeriodicDiscreteUpdateEvent(period, t_start + offset, self._step)
+        # The target is a function of time and the commanded poses alone: without these
+        # tickets Drake would recompute it whenever any input (the plant's state) changes.
+        timed = {self.time_ticket(), self.xd_ticket()}
         self.DeclareAbstractOutputPort(
-            "X_WG_target", lambda: AbstractValue.Make(RigidTransform()), self._calc_pose)
-        self.DeclareVectorOutputPort("V_WG_target", 6, self._calc_velocity)
+            "X_WG_target", lambda: AbstractValue.Make(RigidTransform()), self._calc_pose,
+            timed)
+        self.DeclareVectorOutputPort("V_WG_target", 6, self._calc_velocity, timed)
         self.DeclareVectorOutputPort("X_WG_commanded", 7, self._calc_commanded,
                                      {self.xd_ticket()})
 
