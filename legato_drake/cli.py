@@ -495,6 +495,8 @@ def _settle_set_aside(args: argparse.Namespace, succeeded: bool) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``legato-drake``."""
+    from legato_drake.scenario import DEFAULT_MAX_TARGET_LEAD
+
     parser = _Parser(
         prog="legato-drake",
         description="LEGATO cross-embodiment imitation learning on Drake. Exit codes: 0 "
@@ -689,10 +691,11 @@ def build_parser() -> argparse.ArgumentParser:
                                "--seed0 A --trials B-A+1")
     evaluate.add_argument("--duration", type=_seconds, default=None,
                           help="seconds per trial after homing (default: 40)")
-    evaluate.add_argument("--max-target-lead", type=_metres, default=0.0, metavar="M",
+    evaluate.add_argument("--max-target-lead", type=_metres, default=DEFAULT_MAX_TARGET_LEAD,
+                          metavar="M",
                           help="bound how far the commanded gripper pose may lead the "
                                "measured one, in metres (scenario max_target_lead; default "
-                               "0: unbounded)")
+                               f"{DEFAULT_MAX_TARGET_LEAD}; 0: unbounded)")
     evaluate.add_argument("--plot", nargs="+", metavar="JSON",
                           help="only combine these results files into one plot and table")
     evaluate.add_argument("--set", action="append", metavar="FIELD=VALUE",

@@ -9,7 +9,7 @@ Example ``scenario.yaml`` (every field is optional; the defaults are shown)::
     checkpoint: ""           # controller: policy runs this trained checkpoint
     seed: 0
     duration: 40.0
-    max_target_lead: 0.0     # policy only: bound on the commanded gripper's lead (metres)
+    max_target_lead: 0.03    # policy only: bound on the commanded gripper's lead (metres)
     expert_noise: {position_std: 0.0, rotation_std_deg: 0.0, correlation: 0.8}
     camera: {enabled: true, width: 128, height: 128, fov_y_deg: 120.0}
     recording: {meshcat: false, fps: 30.0}
@@ -27,6 +27,12 @@ from pydrake.common.yaml import yaml_load, yaml_load_typed
 from legato_drake.data.pose_stream import check_pose_stream_file
 from legato_drake.errors import ConfigError, unknown_name, yaml_problem
 from legato_drake.files import read_text_file
+
+DEFAULT_MAX_TARGET_LEAD = 0.03
+"""How far (metres) a policy's commanded gripper may lead the measured one by default: two
+10 Hz steps at the demonstrations' fastest cruise (15 cm/s), so a robot that keeps up seldom
+meets the bound, while the target of one that stalls stops there instead of running away
+(README, Learned policies)."""
 
 CONTROLLERS = ("scripted", "replay", "policy", "external")
 """Names accepted by ``Scenario.controller``."""
@@ -117,11 +123,11 @@ class Scenario:
     """Simulated seconds the controller is given after homing (SPEC: 40 s)."""
     stop_on_success: bool = True
     """End the episode as soon as the task's success predicate holds."""
-    max_target_lead: float = 0.0
+    max_target_lead: float = DEFAULT_MAX_TARGET_LEAD
     """``controller: policy`` only: how far (metres) the commanded gripper pose may lead the
     measured gripper; a step that would take it further is shortened along its direction to
-    that distance (``GripperTargetIntegrator``). 0 leaves it unbounded. Where a robot cannot
-    follow, an unbounded target keeps integrating the policy's deltas and runs away (README,
+    that distance (``GripperTargetIntegrator``). 0 leaves it unbounded: where a robot cannot
+    follow, the target then keeps integrating the policy's deltas and runs away (README,
     Learned policies: 40 cm on Spot)."""
     expert_noise: ExpertNoiseConfig = field(default_factory=ExpertNoiseConfig)
     """Perturbations of ``controller: scripted`` (seeded by ``seed``); none by default."""

@@ -27,11 +27,12 @@ from legato_drake.errors import ConfigError
 from legato_drake.executor import Blob
 from legato_drake.experiment.grid import load_grid, subset
 from legato_drake.experiment.report import overall_table, task_table
-from legato_drake.experiment.runner import plan_runs, trained_runs, training_key
+from legato_drake.experiment.runner import plan_runs, trained_runs, training_key, trial_key
 from legato_drake.experiment.units import TrainUnit, run_unit, unit_key
 from legato_drake.learning.checkpoint import load_checkpoint
 from legato_drake.learning.config import key_fields
 from legato_drake.learning.train import train
+from legato_drake.scenario import DEFAULT_MAX_TARGET_LEAD
 from tests.learning_helpers import synthetic_dataset, tiny_config
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -95,6 +96,8 @@ methods: [{name: a, config: legato_small_state.yaml}]
     (GOOD + "evaluation: {embodiments: [r2d2]}", "evaluation.embodiments[0]: unknown 'r2d2'"),
     (GOOD + "evaluation: {seed0: 2}", "evaluation seeds overlap the training seeds"),
     (GOOD + "selection: {seed0: 10005}", "evaluation seeds overlap the selection seeds"),
+    (GOOD + "evaluation: {max_target_lead: -0.01}",
+     "evaluation.max_target_lead must be at least 0"),
     ("datasets: [{task: lid}]\nmethods: [{name: a, config: nope.yaml}]",
      "methods[0].config: no learning config 'nope.yaml'"),
     ("datasets: [{task: lid}]\nmethods: [{name: a, config: legato_small_state.yaml, "
@@ -146,6 +149,21 @@ def test_unit_keys_follow_their_inputs(tmp_path):
     part = subset(grid, methods=["b"], seeds=[1])
     assert [(r.method.name, r.seed, r.key) for r in plan_runs(part, tmp_path)] == \
         [("b", 1, before["b", 1])]
+
+
+def test_trial_keys_name_the_target_lead_bound_unless_unbounded(tmp_path):
+    """A trial's key names the bound on the commanded gripper's lead it ran under, so that
+    bounded and unbounded trials never count for one another; unbounded trials keep the keys
+    they had before the bound existed."""
+    blob = Blob.of(synthetic_dataset(tmp_path / "d.hdf5", demos=2, length=5, images=False))
+    keys = {}
+    for lead in (0.0, 0.03, 0.05):
+        grid = load_grid(_grid(tmp_path, GOOD + f"evaluation: {{max_target_lead: {lead}}}"))
+        run = plan_runs(grid, tmp_path)[0]
+        keys[lead] = trial_key(run, blob, "spot", 10000, grid.evaluation)
+    assert keys[0.0] == unit_key("trial", run.key, blob.sha256, "spot", "lid", 10000, 0.0)
+    assert len(set(keys.values())) == 3
+    assert load_grid(SMOKE).evaluation.max_target_lead == DEFAULT_MAX_TARGET_LEAD > 0
 
 
 def test_training_keys_leave_out_the_rollout_fields_alone(tmp_path):
@@ -230,6 +248,7 @@ def test_local_backend_end_to_end(local_run):
     assert len(results) == cells
     assert {r["embodiment"] for r in results} == set(grid.evaluation.embodiments)
     assert {int(r["seed"]) for r in results} == {10000, 10001}
+    assert {float(r["max_target_lead"]) for r in results} == {grid.evaluation.max_target_lead}
     rows = _rows(local_run / "trials.jsonl")
     (run,) = (local_run / "runs").iterdir()  # the training's scratch folder is gone
     selection = json.loads((run / "selection.json").read_text())

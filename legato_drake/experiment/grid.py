@@ -33,6 +33,7 @@ from legato_drake.files import read_text_file
 from legato_drake.learning.config import LearningConfig, load_config
 from legato_drake.pipelines.evaluate import EVAL_SEED0
 from legato_drake.pipelines.selection import SELECT_SEED0
+from legato_drake.scenario import DEFAULT_MAX_TARGET_LEAD
 from legato_drake.tasks import TASKS
 
 CONFIGS_DIR = Path(__file__).resolve().parents[2] / "configs"
@@ -86,13 +87,15 @@ class SelectionSpec:
 @dataclass
 class EvaluationSpec:
     """The evaluation: trials per embodiment and task, scene seeds from ``seed0``;
-    ``duration`` 0 keeps each task's own episode length."""
+    ``duration`` 0 keeps each task's own episode length; ``max_target_lead`` bounds the
+    commanded gripper's lead in these trials and the selection's (``Scenario``; 0: none)."""
 
     embodiments: list[str] = field(default_factory=lambda: list(EMBODIMENTS))
     tasks: list[str] = field(default_factory=lambda: ["lid"])
     trials: int = 50
     seed0: int = EVAL_SEED0
     duration: float = 0.0
+    max_target_lead: float = DEFAULT_MAX_TARGET_LEAD
 
 
 @dataclass
@@ -230,6 +233,7 @@ def validate(grid: Grid) -> Grid:
                               f"on (datasets: {', '.join(tasks)})")
     _at_least("evaluation.trials", e.trials, 1)
     _at_least("evaluation.duration", e.duration, 0)
+    _at_least("evaluation.max_target_lead", e.max_target_lead, 0)
     selection = set(range(s.seed0, s.seed0 + s.trials)) if s.trials else set()
     evaluation = set(range(e.seed0, e.seed0 + e.trials))
     training = set()

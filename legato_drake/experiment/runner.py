@@ -42,7 +42,7 @@ from pathlib import Path
 
 from legato_drake.errors import ConfigError
 from legato_drake.executor import Blob, Executor, RayExecutor
-from legato_drake.experiment.grid import Grid, MethodSpec, grid_dict
+from legato_drake.experiment.grid import EvaluationSpec, Grid, MethodSpec, grid_dict
 from legato_drake.experiment.units import TrainUnit, TrialUnit, run_unit, unit_key
 from legato_drake.files import atomic_write_bytes, atomic_write_csv, atomic_write_text
 from legato_drake.learning.checkpoint import with_rollout_settings
@@ -61,8 +61,9 @@ from legato_drake.scenario import ExpertNoiseConfig
 
 log = logging.getLogger(__name__)
 
-RESULT_FIELDS = ("method", "train_seed", "embodiment", "task", "seed", "success", "reason",
-                 "success_time", "episode_time", "wall_time", "checkpoint_step", "run", "key")
+RESULT_FIELDS = ("method", "train_seed", "embodiment", "task", "seed", "max_target_lead",
+                 "success", "reason", "success_time", "episode_time", "wall_time",
+                 "checkpoint_step", "run", "key")
 """The columns of ``results.csv``."""
 
 
@@ -157,6 +158,17 @@ def plan_runs(grid: Grid, out: Path) -> list[RunPlan]:
                 folder = out / "runs" / f"{method.name}-{task}-seed{seed}-{key[:10]}"
                 runs.append(RunPlan(method, task, seed, config, data, key, folder))
     return runs
+
+
+def trial_key(run: RunPlan, blob: Blob, embodiment: str, seed: int,
+              evaluation: EvaluationSpec) -> str:
+    """The key of one trial (selection or evaluation): the weights it runs, where, and how.
+    Unbounded trials (``max_target_lead`` 0, the only kind before the bound existed) keep the
+    keys of that time; a bound is part of the key, so bounded and unbounded trials never
+    count for one another."""
+    lead = [evaluation.max_target_lead] if evaluation.max_target_lead else []
+    return unit_key("trial", run.key, blob.sha256, embodiment, run.task, seed,
+                    evaluation.duration, *lead)
 
 
 def training_key(data: str, config: LearningConfig | dict) -> str:
@@ -326,8 +338,8 @@ class _Scheduler:
         seeds = range(selection.seed0, selection.seed0 + selection.trials)
         for path in candidates(run.folder):
             blob = Blob.of(path)  # a trial's key names the weights it runs, by their hash
-            keys = [unit_key("trial", run.key, blob.sha256, selection.embodiment, run.task,
-                             seed, self.grid.evaluation.duration) for seed in seeds]
+            keys = [trial_key(run, blob, selection.embodiment, seed, self.grid.evaluation)
+                    for seed in seeds]
             run.selection[path.name] = keys
             for i, (seed, key) in enumerate(zip(seeds, keys, strict=True)):
                 if key in self.ledger:
@@ -366,8 +378,7 @@ class _Scheduler:
         for embodiment in evaluation.embodiments:
             for i in range(evaluation.trials):
                 seed = evaluation.seed0 + i
-                key = unit_key("trial", run.key, blob.sha256, embodiment, run.task, seed,
-                               evaluation.duration)
+                key = trial_key(run, blob, embodiment, seed, evaluation)
                 self.eval_keys.append(key)
                 if key in self.ledger:
                     self.skipped["trials"] += 1
@@ -378,9 +389,10 @@ class _Scheduler:
 
     def _queue_trial(self, run: RunPlan, key: str, checkpoint: Path, blob: Blob,
                      embodiment: str, seed: int, index: int, info: dict) -> None:
-        duration = self.grid.evaluation.duration or None
+        evaluation = self.grid.evaluation
         scenario = trial_scenario(embodiment, run.task, seed, checkpoint,
-                                  run.config.obs_mode == "image", duration)
+                                  run.config.obs_mode == "image", evaluation.duration or None,
+                                  evaluation.max_target_lead)
         job = TrialJob(run.method.name, index, scenario)
         self.by_key[key] = (run, {**info, "method": run.method.name, "train_seed": run.seed,
                                   "run": run.folder.name, "checkpoint_sha256": blob.sha256})

@@ -39,7 +39,7 @@ from legato_drake.executor import Executor, make_executor
 from legato_drake.files import atomic_write_bytes, atomic_write_csv, atomic_write_text
 from legato_drake.learning.config import ROLLOUT_FIELDS, apply_rollout_overrides
 from legato_drake.progress import progress_bar
-from legato_drake.scenario import Scenario
+from legato_drake.scenario import DEFAULT_MAX_TARGET_LEAD, Scenario
 from legato_drake.summary import Rate, group_by
 from legato_drake.tasks import TASKS
 
@@ -48,8 +48,8 @@ log = logging.getLogger(__name__)
 FORMAT = "legato_drake.evaluation"
 EVAL_SEED0 = 10000
 """First scene seed of evaluation trials (training data uses seeds from 0)."""
-TRIAL_FIELDS = ("method", "embodiment", "task", "trial", "seed", "success", "reason",
-                "success_time", "episode_time", "wall_time", "html")
+TRIAL_FIELDS = ("method", "embodiment", "task", "trial", "seed", "max_target_lead", "success",
+                "reason", "success_time", "episode_time", "wall_time", "html")
 
 
 @dataclass(frozen=True)
@@ -65,7 +65,7 @@ class TrialJob:
 
 def trial_scenario(embodiment: str, task: str, seed: int, checkpoint: str | Path,
                    camera: bool, duration: float | None,
-                   max_target_lead: float = 0.0) -> Scenario:
+                   max_target_lead: float = DEFAULT_MAX_TARGET_LEAD) -> Scenario:
     """The scenario of one trial: the checkpoint's policy in the scene of ``seed``."""
     scenario = Scenario(embodiment=embodiment, task=task, controller="policy",
                         checkpoint=str(checkpoint), seed=seed,
@@ -85,7 +85,8 @@ def run_trial(job: TrialJob) -> dict:
     torch.set_num_threads(1)
     scenario, html = job.scenario, job.html
     row = {"method": job.method, "embodiment": scenario.embodiment, "task": scenario.task,
-           "trial": job.trial, "seed": scenario.seed}
+           "trial": job.trial, "seed": scenario.seed,
+           "max_target_lead": scenario.max_target_lead}
     start = time.perf_counter()
     try:
         result = run_episode(scenario, html=html)
@@ -133,7 +134,8 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
              method: str | None = None, seed0: int = EVAL_SEED0,
              duration: float | None = None, progress: bool | None = None,
              overwrite: bool = False, executor: Executor | None = None,
-             overrides: list[str] | None = None, max_target_lead: float = 0.0) -> dict:
+             overrides: list[str] | None = None,
+             max_target_lead: float = DEFAULT_MAX_TARGET_LEAD) -> dict:
     """Runs ``trials`` closed-loop trials of the policy per embodiment and task (skipping
     those already in the results file), in ``workers`` processes (or on ``executor``);
     returns the results document, rewritten after every trial. The first ``replays`` trials
