@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 
 import pytest
@@ -155,6 +156,10 @@ def test_resume_continues_the_step_count_with_the_same_losses(tmp_path, data):
     resumed = train(config, data, tmp_path / "split", resume=True, progress=False)
     assert resumed.step == 20
     assert _losses(tmp_path / "split") == pytest.approx(_losses(tmp_path / "full"), rel=1e-5)
+    # each start records the machine it trained on, from the step it started at
+    starts = json.loads((tmp_path / "split" / "machine.json").read_text())
+    assert [entry["step"] for entry in starts] == [0, 10]
+    assert starts[0]["torch"] == torch.__version__ and starts[0]["cpu_capability"]
 
 
 def test_cli_train_with_an_override(tmp_path, data):

@@ -3,6 +3,9 @@
 ``train(config, data, out)`` writes into ``out``:
 
 * ``config.yaml``: the run's config (also inside every checkpoint);
+* ``machine.json``: where the run was trained, one entry per start (a resumed run adds one):
+  the step it started from, the CPU model, torch's CPU instruction set, the versions and the
+  device, since float results can differ between machines (README, Learned policies);
 * ``log.csv``: one row per step (``step``, the family's loss terms, e.g. ``nll, ce, invar,
   total`` for the recurrent GMM policies, and ``lr``) and, every ``valid_every`` steps, the
   validation losses (``valid_*`` columns; empty otherwise),
@@ -20,6 +23,7 @@ the same losses).
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import dataclasses
 import io
@@ -149,6 +153,26 @@ def log_columns(policy: PolicyFamily) -> tuple[str, ...]:
     return ("step", *terms, "lr", *(f"valid_{t}" for t in terms))
 
 
+def _record_machine(path: Path, step: int, device: str) -> None:
+    """Appends where this (re)start of the run trains to ``machine.json``."""
+    import json
+    import platform
+
+    model = platform.processor()
+    with contextlib.suppress(OSError):
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    entries = json.loads(path.read_text()) if path.is_file() else []
+    entries.append({"step": step, "cpu": model, "machine": platform.machine(),
+                    "cpu_capability": torch.backends.cpu.get_cpu_capability(),
+                    "threads": torch.get_num_threads(), "device": str(device),
+                    "python": platform.python_version(), "torch": torch.__version__,
+                    "numpy": np.__version__})
+    atomic_write_text(path, json.dumps(entries, indent=1))
+
+
 def _write_log(path: Path, rows: list[dict], columns: tuple[str, ...]) -> None:
     """Rewrites the log with ``rows`` (atomically): once per run, to cut a resumed run's log
     back to its checkpoint's step."""
@@ -252,6 +276,7 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
         optimizer.load_state_dict(ckpt.optimizer)
     out.mkdir(parents=True, exist_ok=True)
     save_config(config, out / "config.yaml")
+    _record_machine(out / "machine.json", ckpt.step, device)
     log_path = out / "log.csv"
     columns = log_columns(policy)
     _write_log(log_path, _read_log(log_path, ckpt.step), columns)
