@@ -27,8 +27,10 @@ import contextlib
 import csv
 import dataclasses
 import io
+import json
 import logging
 import math
+import platform
 import random
 from collections.abc import Iterator
 from pathlib import Path
@@ -155,9 +157,6 @@ def log_columns(policy: PolicyFamily) -> tuple[str, ...]:
 
 def _record_machine(path: Path, step: int, device: str) -> None:
     """Appends where this (re)start of the run trains to ``machine.json``."""
-    import json
-    import platform
-
     model = platform.processor()
     with contextlib.suppress(OSError):
         for line in Path("/proc/cpuinfo").read_text().splitlines():
