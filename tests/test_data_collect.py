@@ -18,6 +18,7 @@ from legato_drake.data.synthetic import synthetic_episode
 from legato_drake.pipelines import collect as collect_module
 from legato_drake.pipelines.collect import collect, parts_dir, record_episode
 from legato_drake.scenario import Scenario
+from legato_drake.tasks import TASKS
 
 
 def _cli(*args: str, **kwargs) -> subprocess.CompletedProcess:
@@ -84,8 +85,14 @@ def test_keeps_the_first_successful_seeds_and_extends(tmp_path, monkeypatch):
     assert runner.seeds == []
     collect("lid", "abstract", 6, out, camera=False)  # extends, failures not retried
     assert runner.seeds == [6, 7, 8] and _seeds(out) == [0, 2, 3, 5, 6, 8]
-    with pytest.raises(DatasetError, match="other settings.*camera=False"):
+    with pytest.raises(DatasetError, match="other settings.*camera=False, now True"):
         collect("lid", "abstract", 6, out, camera=True)
+    # The lid's expert changed since (a new demo version): the old demos are not resumed.
+    version = TASKS["lid"].demo_version
+    monkeypatch.setattr(TASKS["lid"], "demo_version", version + 1)
+    with pytest.raises(DatasetError,
+                       match=f"other settings.*demo_version={version}, now {version + 1}"):
+        collect("lid", "abstract", 8, out, camera=False)
 
 
 def test_too_few_successes(tmp_path, monkeypatch):

@@ -27,12 +27,19 @@ from legato_drake.errors import ConfigError
 from legato_drake.executor import Blob
 from legato_drake.experiment.grid import load_grid, subset
 from legato_drake.experiment.report import overall_table, task_table
-from legato_drake.experiment.runner import plan_runs, trained_runs, training_key, trial_key
+from legato_drake.experiment.runner import (
+    dataset_path,
+    plan_runs,
+    trained_runs,
+    training_key,
+    trial_key,
+)
 from legato_drake.experiment.units import TrainUnit, run_unit, unit_key
 from legato_drake.learning.checkpoint import load_checkpoint
 from legato_drake.learning.config import key_fields
 from legato_drake.learning.train import train
 from legato_drake.scenario import DEFAULT_MAX_TARGET_LEAD
+from legato_drake.tasks import TASKS
 from tests.learning_helpers import synthetic_dataset, tiny_config
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -149,6 +156,21 @@ def test_unit_keys_follow_their_inputs(tmp_path):
     part = subset(grid, methods=["b"], seeds=[1])
     assert [(r.method.name, r.seed, r.key) for r in plan_runs(part, tmp_path)] == \
         [("b", 1, before["b", 1])]
+
+
+def test_dataset_keys_follow_the_experts_demo_version(tmp_path, monkeypatch):
+    """A task whose expert changed (a higher ``demo_version``) gets a new dataset, and so new
+    runs; version 1 keeps the keys of the grids that predate versions."""
+    grid = load_grid(_grid(tmp_path, GOOD))
+    task = grid.evaluation.tasks[0]
+    monkeypatch.setattr(TASKS[task], "demo_version", 1)
+    first = dataset_path(grid, task, tmp_path)
+    assert first.name.endswith(unit_key("dataset", dataclasses.asdict(
+        grid.dataset_for(task)))[:10] + ".hdf5")
+    runs = {r.key for r in plan_runs(grid, tmp_path)}
+    monkeypatch.setattr(TASKS[task], "demo_version", 2)
+    assert dataset_path(grid, task, tmp_path) != first
+    assert not runs & {r.key for r in plan_runs(grid, tmp_path)}
 
 
 def test_trial_keys_name_the_target_lead_bound_unless_unbounded(tmp_path):

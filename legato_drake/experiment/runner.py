@@ -58,6 +58,7 @@ from legato_drake.pipelines.evaluate import TrialJob, trial_order, trial_scenari
 from legato_drake.pipelines.selection import candidates, write_selection
 from legato_drake.progress import progress_bar
 from legato_drake.scenario import ExpertNoiseConfig
+from legato_drake.tasks import TASKS
 
 log = logging.getLogger(__name__)
 
@@ -140,9 +141,12 @@ class ExperimentReport:
 
 
 def dataset_path(grid: Grid, task: str, out: Path) -> Path:
-    """Where the dataset of ``task`` goes (named by its unit key)."""
+    """Where the dataset of ``task`` goes (named by its unit key: the dataset's spec, and the
+    version of the task's expert past the first, so that the datasets of version 1 keep
+    their keys)."""
     spec = grid.dataset_for(task)
-    key = unit_key("dataset", dataclasses.asdict(spec))
+    version = TASKS[task].demo_version
+    key = unit_key("dataset", dataclasses.asdict(spec), *([version] if version != 1 else []))
     return out / "datasets" / f"{task}-{spec.embodiment}-{key[:10]}.hdf5"
 
 

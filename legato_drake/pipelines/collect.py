@@ -37,20 +37,26 @@ from legato_drake.executor import Executor, make_executor
 from legato_drake.files import atomic_write_bytes, atomic_write_text
 from legato_drake.progress import progress_bar
 from legato_drake.scenario import ExpertNoiseConfig, Scenario
+from legato_drake.tasks import TASKS
 
 log = logging.getLogger(__name__)
 
 PART_GROUP = "data/demo_0"
 CONFIG_KEYS = ("task", "embodiment", "camera", "camera_model", "duration", "source",
-               "keep_failures", "expert_noise", "stop_on_success")
+               "keep_failures", "expert_noise", "stop_on_success", "demo_version")
 """Collect settings that change what an episode is: a resumed collection must match them."""
-CONFIG_DEFAULTS = {"camera_model": "pinhole"}
+CONFIG_DEFAULTS = {"camera_model": "pinhole", "demo_version": 1}
 """What a setting was before collections recorded it (datasets written by older versions)."""
 
 
 def _setting(config: dict, key: str) -> object:
     """A collect setting of ``config`` (a recorded one: its default where it predates it)."""
     return config.get(key, CONFIG_DEFAULTS.get(key))
+
+
+def _differences(old: dict, config: dict, keys: list[str]) -> str:
+    """The settings ``keys`` that differ, as recorded in ``old`` and as asked now."""
+    return ", ".join(f"{k}={_setting(old, k)!r}, now {config.get(k)!r}" for k in keys)
 
 
 @dataclass(frozen=True)
@@ -195,7 +201,7 @@ def _check_config(folder: Path, config: dict, out: Path) -> None:
         if diff:
             raise DatasetError(
                 f"{folder} holds episodes collected with other settings "
-                f"({', '.join(f'{k}={old.get(k)!r}' for k in diff)}); collect into another "
+                f"({_differences(old, config, diff)}); collect into another "
                 f"--out than {out} or delete that folder")
     else:
         atomic_write_text(path, json.dumps(config, indent=1))
@@ -209,7 +215,7 @@ def _restore_parts(out: Path, folder: Path, config: dict) -> None:
         if diff:
             raise DatasetError(
                 f"{out} exists and was collected with other settings "
-                f"({', '.join(f'{k}={old.get(k)!r}' for k in diff)}); choose another --out "
+                f"({_differences(old, config, diff)}); choose another --out "
                 "or delete it")
         manifest = json.loads(f["meta/manifest"][()]) if "meta/manifest" in f else {}
         folder.mkdir(parents=True, exist_ok=True)
@@ -353,7 +359,7 @@ def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers:
                   duration=base.duration, source=source_names, seed0=seed0,
                   keep_failures=keep_failures, episodes=episodes,
                   expert_noise=dataclasses.asdict(base.expert_noise),
-                  stop_on_success=stop_on_success)
+                  stop_on_success=stop_on_success, demo_version=TASKS[task].demo_version)
     folder = parts_dir(out)
     if out.exists() and not folder.exists():
         manifest = _up_to_date(out, config)

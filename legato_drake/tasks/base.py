@@ -64,6 +64,11 @@ class Task(abc.ABC):
 
     name: str = ""
     description: str = ""
+    demo_version: int = 1
+    """The version of the scripted expert's demonstrations: raised by every change to
+    ``plan_demonstration`` that changes what it records. A collection records it and does
+    not resume a dataset of another version; an experiment grid keys its datasets by it, so
+    an experiment folder never reuses demos the expert no longer makes."""
 
     @abc.abstractmethod
     def add_to_plant(self, plant: MultibodyPlant, parser: Parser) -> None:
