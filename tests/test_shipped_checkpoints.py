@@ -3,6 +3,8 @@ seeds, and drive a real closed-loop rollout."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from legato_drake.episode import run_episode
@@ -80,16 +82,22 @@ def test_a_bounded_target_lead_runs_in_the_diagram():
     assert max(unbounded) > 0.008
 
 
+STALLING_LID_POLICY = Path(__file__).parent / "fixtures" / "lid_policy_spot_stalls.pt"
+"""The state lid policy shipped until the lid's demos changed (2026-12-05, demo version 2):
+on Spot in the demo's scene its gripper stalls short of the handle (today's lid policy does
+not stall there)."""
+
+
 @pytest.mark.slow
 def test_the_default_lead_bound_keeps_spots_target_from_running_away():
-    """The shipped lid policy on Spot in the demo's scene (seed 0): Spot's gripper stalls
-    short of the handle while the policy keeps stepping; unbounded, the commanded target
-    integrates those steps and runs away (Spot lunges after it: decimetres of tracking
-    error, the lid never placed), with the default bound the same policy succeeds."""
+    """A lid policy on Spot in the demo's scene (seed 0): Spot's gripper stalls short of the
+    handle while the policy keeps stepping; unbounded, the commanded target integrates those
+    steps and runs away (Spot lunges after it: decimetres of tracking error, the lid never
+    placed), with the default bound the same policy succeeds."""
     results = {}
     for lead in (DEFAULT_MAX_TARGET_LEAD, 0.0):
         scenario = Scenario(embodiment="spot", task="lid", controller="policy",
-                            checkpoint=str(shipped_checkpoint("lid")), seed=0,
+                            checkpoint=str(STALLING_LID_POLICY), seed=0,
                             max_target_lead=lead)
         scenario.camera.enabled = False
         results[lead] = run_episode(scenario.validate())
