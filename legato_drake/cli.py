@@ -83,8 +83,9 @@ def _names(value: str, registry: dict, kind: str) -> list[str]:
     return names
 
 
-def _seeds(value: str) -> list[int]:
-    """``7`` -> [7]; ``0-49`` -> [0, ..., 49]; ``1,5,9`` -> [1, 5, 9]."""
+def seed_list(value: str) -> list[int]:
+    """``7`` -> [7]; ``0-49`` -> [0, ..., 49]; ``1,5,9`` -> [1, 5, 9] (an argparse type: bad
+    input is an ArgumentTypeError naming --seeds)."""
     try:
         if "-" in value:
             low, high = (int(v) for v in value.split("-", 1))
@@ -340,7 +341,8 @@ def cmd_experiment(args: argparse.Namespace) -> int:
 
     grid = subset(load_grid(args.grid), _csv_list(args.methods, "--methods"),
                   _csv_list(args.tasks, "--tasks"),
-                  _csv_list(args.train_seeds, "--train-seeds", int), args.trials)
+                  _csv_list(args.train_seeds, "--train-seeds", int), args.trials,
+                  _csv_list(args.embodiments, "--embodiments"), args.seed0)
     check_output_dir(Path(args.out), "--out")
     executor = make_backend(args.backend, args.workers, args.ray_address)
     report = run_experiment(grid, args.out, executor)
@@ -522,7 +524,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--task", "--tasks", dest="task", default=None,
                       help="task name, names, or 'all' (default: the --scenario file's, "
                            "else lid)")
-    demo.add_argument("--seeds", "--seed", type=_seeds, default=None, metavar="SEEDS",
+    demo.add_argument("--seeds", "--seed", type=seed_list, default=None, metavar="SEEDS",
                       help="seed N, range A-B or list A,B,C (default: the scenario's, 0)")
     demo.add_argument("--workers", type=_int_at_least(1), default=1,
                       help="worker processes for several episodes (default: 1)")
@@ -551,7 +553,7 @@ def build_parser() -> argparse.ArgumentParser:
                           help="names or 'all' (default)")
     retarget.add_argument("--tasks", "--task", dest="tasks", default="lid",
                           help="names or 'all' (default: lid)")
-    retarget.add_argument("--seeds", type=_seeds, default=_seeds("0-4"),
+    retarget.add_argument("--seeds", type=seed_list, default=seed_list("0-4"),
                           help="N, A-B or A,B,C (default: 0-4)")
     retarget.add_argument("--workers", type=_int_at_least(1), default=1,
                           help="worker processes")
@@ -686,7 +688,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--method", help="method name (default: the config's name)")
     evaluate.add_argument("--seed0", type=_int_at_least(0), default=None,
                           help="first trial seed (default 10000, past the training seeds)")
-    evaluate.add_argument("--seeds", type=_seeds, default=None, metavar="A-B",
+    evaluate.add_argument("--seeds", type=seed_list, default=None, metavar="A-B",
                           help="the trial seeds as demo spells them (N or A-B): the same as "
                                "--seed0 A --trials B-A+1")
     evaluate.add_argument("--duration", type=_seconds, default=None,
@@ -742,6 +744,11 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--train-seeds", help="only these training seeds (0,1)")
     experiment.add_argument("--trials", type=_int_at_least(1), default=None,
                             help="only the first N evaluation scene seeds of the grid's")
+    experiment.add_argument("--embodiments", help="only these evaluated robots (a,b)")
+    experiment.add_argument("--seed0", type=_int_at_least(0), default=None, metavar="N",
+                            help="evaluate on the scene seeds from N instead of the grid's "
+                                 "(e.g. development seeds 20000 on which to compare recipes; "
+                                 "never a training or selection seed)")
     experiment.set_defaults(func=cmd_experiment)
     for sub in verbs.choices.values():  # -v also after the verb
         sub.add_argument("-v", "--verbose", action="store_true", default=argparse.SUPPRESS,

@@ -158,6 +158,25 @@ def test_unit_keys_follow_their_inputs(tmp_path):
         [("b", 1, before["b", 1])]
 
 
+def test_development_seeds_move_the_evaluation_alone(tmp_path):
+    """``--embodiments`` and ``--seed0`` evaluate the grid's own trainings elsewhere (e.g.
+    development seeds on Abstract); seeds a training demo or a selection trial used are
+    refused, naming the flag."""
+    grid = load_grid(_grid(tmp_path, GOOD + "evaluation: {embodiments: [abstract, panda]}"))
+    part = subset(grid, embodiments=["abstract"], seed0=20000)
+    assert part.evaluation.embodiments == ["abstract"] and part.evaluation.seed0 == 20000
+    assert [r.key for r in plan_runs(part, tmp_path)] == \
+        [r.key for r in plan_runs(grid, tmp_path)]
+    assert grid.evaluation.seed0 != 20000  # the grid itself is unchanged
+    with pytest.raises(ConfigError, match=r"--seed0 5000: evaluation seeds overlap the "
+                                          r"selection seeds"):
+        subset(grid, seed0=5000)
+    with pytest.raises(ConfigError, match=r"--seed0 3: .*overlap the training seeds"):
+        subset(grid, seed0=3)
+    with pytest.raises(ConfigError, match=r"--embodiments: \['spot'\] not in the grid"):
+        subset(grid, embodiments=["spot"])
+
+
 def test_dataset_keys_follow_the_experts_demo_version(tmp_path, monkeypatch):
     """A task whose expert changed (a higher ``demo_version``) gets a new dataset, and so new
     runs; version 1 keeps the keys of the grids that predate versions."""

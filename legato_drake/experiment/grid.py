@@ -234,6 +234,14 @@ def validate(grid: Grid) -> Grid:
     _at_least("evaluation.trials", e.trials, 1)
     _at_least("evaluation.duration", e.duration, 0)
     _at_least("evaluation.max_target_lead", e.max_target_lead, 0)
+    _check_evaluation_seeds(grid, "evaluation.seed0")
+    return grid
+
+
+def _check_evaluation_seeds(grid: Grid, flag: str) -> None:
+    """Refuses evaluation scene seeds that a training demo or a selection trial used."""
+    s, e = grid.selection, grid.evaluation
+    _at_least(flag, e.seed0, 0)
     selection = set(range(s.seed0, s.seed0 + s.trials)) if s.trials else set()
     evaluation = set(range(e.seed0, e.seed0 + e.trials))
     training = set()
@@ -241,9 +249,8 @@ def validate(grid: Grid) -> Grid:
         training |= set(range(d.seed0, d.seed0 + 3 * d.episodes + 10))  # collect's attempts
     for what, seeds in (("selection", selection), ("training", training)):
         if seeds & evaluation:
-            raise ConfigError(f"evaluation.seed0 {e.seed0}: evaluation seeds overlap the "
+            raise ConfigError(f"{flag} {e.seed0}: evaluation seeds overlap the "
                               f"{what} seeds (from {min(seeds)} to {max(seeds)})")
-    return grid
 
 
 def load_grid(path: str | Path) -> Grid:
@@ -270,18 +277,25 @@ def grid_dict(grid: Grid) -> dict:
 
 
 def subset(grid: Grid, methods: list[str] | None = None, tasks: list[str] | None = None,
-           seeds: list[int] | None = None, trials: int | None = None) -> Grid:
-    """The part of ``grid`` with only these methods, evaluated tasks and training seeds, and
-    the first ``trials`` evaluation scene seeds (``--methods``, ``--tasks``,
-    ``--train-seeds``, ``--trials``; None: all). Its units are the grid's own, so running
-    the part first and the whole later reuses them."""
+           seeds: list[int] | None = None, trials: int | None = None,
+           embodiments: list[str] | None = None, seed0: int | None = None) -> Grid:
+    """The part of ``grid`` with only these methods, evaluated tasks, training seeds and
+    evaluated robots, and the first ``trials`` evaluation scene seeds (``--methods``,
+    ``--tasks``, ``--train-seeds``, ``--trials``, ``--embodiments``; None: all). Its units
+    are the grid's own, so running the part first and the whole later reuses them.
+
+    ``seed0`` (``--seed0``) moves the evaluation to other scene seeds (never a training or
+    selection seed): e.g. development seeds on which to compare recipes, so that the
+    evaluation seeds judge only the one chosen. The trainings and selections stay the
+    grid's own."""
     if trials is not None and not 1 <= trials <= grid.evaluation.trials:
         raise ConfigError(f"--trials must be between 1 and the grid's evaluation.trials "
                           f"({grid.evaluation.trials}), got {trials}")
     for flag, chosen, present in (
             ("--methods", methods, [m.name for m in grid.methods]),
             ("--tasks", tasks, grid.evaluation.tasks),
-            ("--train-seeds", seeds, grid.training.seeds)):
+            ("--train-seeds", seeds, grid.training.seeds),
+            ("--embodiments", embodiments, grid.evaluation.embodiments)):
         unknown = [c for c in chosen or [] if c not in present]
         if unknown:
             raise ConfigError(f"{flag}: {unknown} not in the grid {grid.where or grid.name}; "
@@ -298,4 +312,11 @@ def subset(grid: Grid, methods: list[str] | None = None, tasks: list[str] | None
             grid.training, seeds=[s for s in grid.training.seeds if s in seeds])
     if trials:
         part.evaluation = dataclasses.replace(part.evaluation, trials=trials)
+    if embodiments:
+        part.evaluation = dataclasses.replace(
+            part.evaluation, embodiments=[e for e in grid.evaluation.embodiments
+                                          if e in embodiments])
+    if seed0 is not None:
+        part.evaluation = dataclasses.replace(part.evaluation, seed0=seed0)
+        _check_evaluation_seeds(part, "--seed0")
     return part
