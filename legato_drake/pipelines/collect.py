@@ -54,6 +54,11 @@ def _setting(config: dict, key: str) -> object:
     return config.get(key, CONFIG_DEFAULTS.get(key))
 
 
+def _changed(old: dict, config: dict, keys: tuple[str, ...] = CONFIG_KEYS) -> list[str]:
+    """The settings of ``keys`` recorded in ``old`` that ``config`` asks otherwise."""
+    return [k for k in keys if _setting(old, k) != config.get(k)]
+
+
 def _differences(old: dict, config: dict, keys: list[str]) -> str:
     """The settings ``keys`` that differ, as recorded in ``old`` and as asked now."""
     return ", ".join(f"{k}={_setting(old, k)!r}, now {config.get(k)!r}" for k in keys)
@@ -197,7 +202,7 @@ def _check_config(folder: Path, config: dict, out: Path) -> None:
     path = folder / "config.json"
     if path.is_file():
         old = json.loads(path.read_text())
-        diff = [k for k in CONFIG_KEYS if _setting(old, k) != config.get(k)]
+        diff = _changed(old, config)
         if diff:
             raise DatasetError(
                 f"{folder} holds episodes collected with other settings "
@@ -211,7 +216,7 @@ def _restore_parts(out: Path, folder: Path, config: dict) -> None:
     """Turns an existing dataset back into parts (to extend it with more episodes)."""
     with open_dataset(out) as f:
         old = read_json_attr(f["data"], "config", {})
-        diff = [k for k in CONFIG_KEYS if _setting(old, k) != config.get(k)]
+        diff = _changed(old, config)
         if diff:
             raise DatasetError(
                 f"{out} exists and was collected with other settings "
@@ -300,8 +305,7 @@ def _up_to_date(out: Path, config: dict) -> dict | None:
             manifest = json.loads(f["meta/manifest"][()]) if "meta/manifest" in f else None
     except (DatasetError, KeyError, ValueError, OSError):
         return None
-    same = all(_setting(old, k) == config.get(k)
-               for k in (*CONFIG_KEYS, "seed0", "keep_failures"))
+    same = not _changed(old, config, (*CONFIG_KEYS, "seed0"))
     if same and manifest and len(manifest.get("kept", [])) == config["episodes"]:
         return manifest
     return None
