@@ -57,6 +57,7 @@ def test_cup_standing_in_the_shelf_succeeds(cup_plant):
 
 @pytest.mark.parametrize("kwargs, words", [
     (dict(cup_in_shelf=(0.0, 0.45, -0.035)), "inside the shelf's interior"),  # beside it
+    (dict(cup_in_shelf=(0.0, 0.45, -1.005)), "cup fell off the table (97 cm below"),  # off it
     (dict(cup_in_shelf=(0.0, 0.10, 0.0)), "inside the shelf's interior"),     # half out
     (dict(cup_in_shelf=(0.19, 0.0, 0.0)), "inside the shelf's interior"),     # in the wall
     (dict(cup_in_shelf=(0.0, 0.0, 0.05)), "from the shelf's floor"),          # in the air

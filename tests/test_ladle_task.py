@@ -64,6 +64,7 @@ def test_ladle_lying_in_the_case_succeeds(ladle_plant):
 
 @pytest.mark.parametrize("kwargs, words", [
     (dict(com_in_case=(0.0, 0.25, 0.0)), "inside the case's walls"),   # dropped beside it
+    (dict(com_in_case=(0.0, 0.25, -1.0)), "ladle fell off the table"),  # off the edge
     (dict(com_in_case=(0.075, 0.0, 0.02)), "inside the case's walls"),  # on the long wall
     (dict(com_in_case=(0.0, 0.0, 0.12)), "above the case's floor"),     # held above it
     (dict(com_in_case=(0.0, 0.0, 0.12), ladle_rpy=(0.0, 0.9, 0.0)),    # tilted, hanging

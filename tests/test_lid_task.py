@@ -39,6 +39,7 @@ def test_lid_resting_on_the_pot_succeeds(panda_plant):
 
 @pytest.mark.parametrize("kwargs, words", [
     (dict(lid_offset=(0.0, -0.25, -0.1)), "from the pot axis"),      # dropped beside the pot
+    (dict(lid_offset=(0.0, -0.6, -1.5)), "lid fell off the table"),  # off the edge
     (dict(lid_offset=(0.035, 0.0, 0.0)), "from the pot axis"),       # just outside 3 cm
     (dict(lid_rpy=(0.5, 0.0, 0.0)), "tilted"),                       # tilted over
     (dict(lid_offset=(0.0, 0.0, 0.05)), "from resting on the rim"),  # still in the air

@@ -111,6 +111,18 @@ def body_speed(plant: MultibodyPlant, context: Context, body) -> float:
         plant.EvalBodySpatialVelocityInWorld(context, body).translational()))
 
 
+FALLEN_BELOW_TABLE = 0.05
+"""How far (m) below the table's top an object counts as fallen off the table."""
+
+
+def on_table_check(what: str, z: float, table_height: float) -> tuple[bool, str]:
+    """The "still on the table" condition, checked first: the scenes have no floor, so an
+    object knocked off the table falls for the rest of the trial, and the other checks'
+    distances would only say how far it fell."""
+    return (z >= table_height - FALLEN_BELOW_TABLE,
+            f"{what} fell off the table ({(table_height - z) * 100:.0f} cm below its top)")
+
+
 def release_check(what: str, fingers: float, half_width: float, margin: float
                   ) -> tuple[bool, str]:
     """The "released" condition: both fingers open wider than the grasped part's half width

@@ -61,6 +61,7 @@ from legato_drake.tasks.base import (
     add_table,
     body_speed,
     finger_opening,
+    on_table_check,
     release_check,
     tilt_angle,
     uniform,
@@ -128,14 +129,15 @@ class CupTask(Task):
         inset = float(min(x - SHELF_INTERIOR_X[0], SHELF_INTERIOR_X[1] - x,
                           y - SHELF_INTERIOR_Y[0], SHELF_INTERIOR_Y[1] - y))
         height = float(z - SHELF_FLOOR)
-        tilt = float(np.degrees(tilt_angle(plant.EvalBodyPoseInWorld(context, self.cup)
-                                           .rotation())))
+        X_WC = plant.EvalBodyPoseInWorld(context, self.cup)
+        tilt = float(np.degrees(tilt_angle(X_WC.rotation())))
         fingers = finger_opening(plant, context)
         speed = body_speed(plant, context, self.cup)
         metrics = dict(inset=inset, shelf_x=float(x), shelf_y=float(y), rest_height=height,
                        tilt_deg=tilt, finger_opening=fingers, cup_speed=speed)
         low, high = self.rest_height_band
         checks = [
+            on_table_check("cup", float(X_WC.translation()[2]), TABLE_HEIGHT),
             (inset >= self.min_inset,
              f"cup axis {inset * 100:.1f} cm inside the shelf's interior (min "
              f"{self.min_inset * 100:.0f} cm; negative = outside)"),

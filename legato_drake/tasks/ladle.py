@@ -47,6 +47,7 @@ from legato_drake.tasks.base import (
     add_table,
     body_speed,
     finger_opening,
+    on_table_check,
     place_stove_and_pot,
     release_check,
     uniform,
@@ -110,7 +111,8 @@ class LadleTask(Task):
 
     def evaluate(self, plant: MultibodyPlant, context: Context) -> SuccessReport:
         X_WF = self.case_floor.CalcPoseInWorld(context)
-        x, y, z = X_WF.inverse() @ self.ladle_com(plant, context)
+        p_WL = self.ladle_com(plant, context)
+        x, y, z = X_WF.inverse() @ p_WL
         inset = float(min(CASE_INTERIOR_HALF[0] - abs(x), CASE_INTERIOR_HALF[1] - abs(y)))
         fingers = finger_opening(plant, context)
         speed = body_speed(plant, context, self.ladle)
@@ -118,6 +120,7 @@ class LadleTask(Task):
                        finger_opening=fingers, ladle_speed=speed)
         low, high = self.height_band
         checks = [
+            on_table_check("ladle", float(p_WL[2]), TABLE_HEIGHT),
             (inset >= self.min_inset,
              f"ladle's centre of mass {inset * 100:.1f} cm inside the case's walls (min "
              f"{self.min_inset * 100:.0f} cm; negative = outside)"),

@@ -27,6 +27,7 @@ from legato_drake.tasks.base import (
     add_table,
     body_speed,
     finger_opening,
+    on_table_check,
     place_stove_and_pot,
     release_check,
     tilt_angle,
@@ -89,6 +90,7 @@ class LidTask(Task):
                        finger_opening=fingers, lid_speed=speed)
         low, high = self.rest_height_band
         checks = [
+            on_table_check("lid", float(X_WL.translation()[2]), TABLE_HEIGHT),
             (offset <= self.max_center_offset,
              f"lid centre {offset * 100:.1f} cm from the pot axis "
              f"(max {self.max_center_offset * 100:.0f} cm)"),
