@@ -32,7 +32,7 @@ DEFAULT_MAX_TARGET_LEAD = 0.03
 """How far (metres) a policy's commanded gripper may lead the measured one by default: two
 10 Hz steps at the demonstrations' fastest cruise (15 cm/s), so a robot that keeps up seldom
 meets the bound, while the target of one that stalls stops there instead of running away
-(README, Learned policies)."""
+(docs/results/state_policies.md)."""
 
 CONTROLLERS = ("scripted", "replay", "policy", "external")
 """Names accepted by ``Scenario.controller``."""
@@ -127,8 +127,8 @@ class Scenario:
     """``controller: policy`` only: how far (metres) the commanded gripper pose may lead the
     measured gripper; a step that would take it further is shortened along its direction to
     that distance (``GripperTargetIntegrator``). 0 leaves it unbounded: where a robot cannot
-    follow, the target then keeps integrating the policy's deltas and runs away (README,
-    Learned policies: 40 cm on Spot)."""
+    follow, the target then keeps integrating the policy's deltas and runs away (docs/results/state_policies.md:
+    40 cm on Spot)."""
     expert_noise: ExpertNoiseConfig = field(default_factory=ExpertNoiseConfig)
     """Perturbations of ``controller: scripted`` (seeded by ``seed``); none by default."""
     camera: CameraConfig = field(default_factory=CameraConfig)

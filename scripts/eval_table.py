@@ -1,4 +1,4 @@
-"""The README's learned-policy table (Markdown) from results files of ``legato-drake evaluate``.
+"""A learned-policy table of the README and docs/results/ (Markdown) from results files of ``legato-drake evaluate``.
 
     python scripts/eval_table.py results/lid/*.json [--task lid]
 

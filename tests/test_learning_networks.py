@@ -242,8 +242,14 @@ def test_the_object_loss_trains_the_encoders_from_the_privileged_poses_and_nothi
     zero = {**batch, "obs": {**batch["obs"],
                              "object_in_tcp": torch.zeros_like(batch["obs"]["object_in_tcp"])}}
     assert float(policy.losses(zero)["aux"].detach()) == pytest.approx(0.0, abs=1e-6)
+    # The diagnostic reads the head in raw units: that head's poses are zero everywhere.
+    estimate = policy.estimate_objects(batch["obs"])
+    assert estimate.shape == batch["obs"]["object_in_tcp"].shape
+    assert float(estimate.abs().max()) == pytest.approx(0.0, abs=1e-5)
     plain = RecurrentGMMPolicy(tiny_config(obs_mode="image", invariant_weight=0.0), _stats())
     assert "aux" not in plain.losses(batch) and plain.object_head is None
+    with pytest.raises(ValueError, match="object_aux_weight"):
+        plain.estimate_objects(batch["obs"])
 
 
 def test_normalizer_round_trip():

@@ -3,9 +3,10 @@
 ::
 
     data/                      attrs: total, env_args (JSON), format, format_version,
-                                      config (JSON), object_bodies (JSON)
+                                      config (JSON)
       demo_<i>/                attrs: num_samples, seed, success, reason, embodiment, task,
-                                      controller, source, scenario (JSON), ...
+                                      controller, source, scenario (JSON),
+                                      object_bodies (JSON), ...
         actions   (T, 7)  float64   [dx, dy, dz, droll, dpitch, dyaw, grasp]
         rewards   (T,)    float64   1 at the last step of a successful episode, else 0
         dones     (T,)    int64     1 at the last step

@@ -217,13 +217,24 @@ class RecurrentGMMPolicy(PolicyFamily):
         total = cfg.nll_weight * nll + cfg.grasp_weight * ce + cfg.invariant_weight * invar
         terms = {"nll": nll, "ce": ce, "invar": invar}
         if self.object_head is not None:
-            # The image features lead the LSTM's input (``features``).
-            image_features = features[..., :self.object_head.in_features]
-            error = self.object_head(image_features) - self.object_normalizer(
-                obs["object_in_tcp"])
+            error = self._object_head(features) - self.object_normalizer(obs["object_in_tcp"])
             terms["aux"] = _masked_mean(error.pow(2).mean(-1), mask)
             total = total + cfg.object_aux_weight * terms["aux"]
         return {**terms, "total": total}
+
+    def _object_head(self, features: torch.Tensor) -> torch.Tensor:
+        """The auxiliary head's normalised ``object_in_tcp`` from the LSTM's input features
+        (the image features lead them, ``features``)."""
+        return self.object_head(features[..., :self.object_head.in_features])
+
+    @torch.no_grad()
+    def estimate_objects(self, obs: Mapping[str, torch.Tensor]) -> torch.Tensor:
+        """What the auxiliary head reads from raw observations (B, T, ...): ``object_in_tcp``
+        (B, T, 9k) in raw units, for diagnostics (``scripts/legato_fit.py``); the policy never
+        acts on it. Needs ``object_aux_weight`` > 0."""
+        if self.object_head is None:
+            raise ValueError("this policy has no object head (object_aux_weight is 0)")
+        return self.object_normalizer.inverse(self._object_head(self.features(obs)))
 
     def initial_state(self) -> RecurrentState:
         return RecurrentState(0, None)

@@ -5,7 +5,7 @@
 * ``config.yaml``: the run's config (also inside every checkpoint);
 * ``machine.json``: where the run was trained, one entry per start (a resumed run adds one):
   the step it started from, the CPU model, torch's CPU instruction set, the versions and the
-  device, since float results can differ between machines (README, Learned policies);
+  device, since float results can differ between machines (docs/results/state_policies.md);
 * ``log.csv``: one row per step (``step``, the family's loss terms, e.g. ``nll, ce, invar,
   total`` for the recurrent GMM policies, and ``lr``) and, every ``valid_every`` steps, the
   validation losses (``valid_*`` columns; empty otherwise),

@@ -46,7 +46,7 @@ bar is 8 cm long). Its placement makes up for it, so that the lid's centre ends 
 axis. At +-8 mm the lid's offset in the gripper after the grasp hardly varied in the demos,
 and a policy's answer to it was left to chance: a training seed that closed 1 cm short of
 the middle then carried the gripper 1-3 cm the wrong way, and the lid missed the axis by
-3-4 cm (README, "Learned policies")."""
+3-4 cm (docs/results/state_policies.md)."""
 
 
 class LidTask(Task):
