@@ -2,7 +2,7 @@
 image policy's action depends on where things are in its frames.
 
     python scripts/legato_fit.py RUN/selected.pt DATA.hdf5 [--split valid] [--windows 100]
-                                 [--shifts 4,10,20 | --offsets 5,10,25]
+                                 [--shifts 4,10,20 | --moves 10,25,50 | --offsets 10,25,50]
 
 For ``--windows`` random windows of ``seq_length`` steps of the demos in ``--split``
 (seeded), the policy reads the window's observations as it would at rollout (evaluation
@@ -18,9 +18,15 @@ With ``--shifts`` (image checkpoints only), every frame of a window is also tran
 pixels (one random direction per window, the border repeated) and the script prints how far
 the predicted translation moves (median and 90th percentile, mm). A policy that must find a
 handle in its view should answer a shift of its view; one whose action hardly changes has
-learned to ignore where things are. ``--offsets`` (state checkpoints reading
-``object_in_tcp``) does the same for a state policy: every object moved k mm in the gripper's
-frame (one random direction per window), the state analogue of a shifted view.
+learned to ignore where things are. But a shift of the whole view is also what a random-crop
+augmentation shows the network in training with the same label, so a policy trained with
+crops is taught to ignore exactly that. ``--moves`` asks the question without that confound:
+every frame of the window is rendered again from the demo's recorded plant state with the
+task's objects moved k mm in the gripper's frame (one random direction per window; the
+gripper, the table and the camera stay), and the script prints how far the predicted
+translation moves against the same frames rendered unmoved. ``--offsets`` (state checkpoints
+reading ``object_in_tcp``) moves the objects by the same k mm in the state a state policy
+reads: the two answers compare directly.
 
 For an image checkpoint trained with the auxiliary object loss (``object_aux_weight``), the
 script also prints how far the objects' positions that its head reads from the frames are
@@ -40,7 +46,7 @@ import torch
 
 from legato_drake.data.derived import VALUES_PER_BODY
 from legato_drake.data.layout import IMAGE_KEYS
-from legato_drake.data.torch_dataset import SPLITS, DemoSequenceDataset
+from legato_drake.data.torch_dataset import SPLITS, DemoSequenceDataset, image_to_tensor
 from legato_drake.learning.checkpoint import load_checkpoint
 from legato_drake.learning.policies import RecurrentGMMPolicy
 
@@ -60,6 +66,56 @@ def offset_objects(object_in_tcp: torch.Tensor, offset: np.ndarray) -> torch.Ten
     for body in range(moved.shape[-1] // n):
         moved[..., n * body:n * body + 3] += torch.as_tensor(offset, dtype=moved.dtype)
     return moved
+
+
+class SceneRenderer:
+    """Renders a demo's gripper frames again from its recorded plant states, with the task's
+    objects optionally moved in the gripper's frame (``--moves``). One diagram per demo (its
+    recorded scenario, the camera it was recorded with), built on first use."""
+
+    def __init__(self, data: Path, image_keys: list[str]):
+        self._file = h5py.File(data, "r")
+        self._keys = image_keys
+        self._built: dict[str, tuple] = {}
+
+    def _diagram(self, demo: str) -> tuple:
+        if demo not in self._built:
+            # The robot side, imported only for this option.
+            from legato_drake.diagram import build_diagram, object_bodies
+            from legato_drake.scenario import scenario_from_yaml_text
+
+            text = self._file[f"data/{demo}"].attrs["scenario"]
+            built = build_diagram(scenario_from_yaml_text(text, f"{demo}'s scenario"))
+            context = built.diagram.CreateDefaultContext()
+            self._built[demo] = (built, context,
+                                 built.plant.GetMyMutableContextFromRoot(context),
+                                 built.camera.GetMyContextFromRoot(context),
+                                 object_bodies(built.plant, built.robot))
+        return self._built[demo]
+
+    def frames(self, demo: str, steps: np.ndarray, offset: np.ndarray
+               ) -> dict[str, torch.Tensor]:
+        """The frames (L, 1, H, W) of ``demo``'s samples ``steps``, rendered with every object
+        moved by ``offset`` (m, in the gripper's TCP frame)."""
+        from pydrake.math import RigidTransform
+
+        built, _, plant_context, camera_context, bodies = self._diagram(demo)
+        plant = built.plant
+        states = self._file[f"data/{demo}/states"]
+        rendered: dict[str, list[np.ndarray]] = {key: [] for key in self._keys}
+        for step in steps:
+            plant.SetPositionsAndVelocities(plant_context, states[int(step)])
+            shift = built.robot.tcp_frame.CalcPoseInWorld(plant_context).rotation() @ offset
+            for body in bodies:
+                X_WB = body.EvalPoseInWorld(plant_context)
+                plant.SetFreeBodyPose(plant_context, body,
+                                      RigidTransform(X_WB.rotation(), X_WB.translation() + shift))
+            for key, image in zip(("left_gray", "right_gray"),
+                                  built.camera.render(camera_context), strict=True):
+                if key in rendered:
+                    rendered[key].append(image)
+        return {key: image_to_tensor(np.stack(images))
+                for key, images in rendered.items()}
 
 
 def predict(policy: RecurrentGMMPolicy, obs: dict[str, torch.Tensor]) -> torch.Tensor:
@@ -85,11 +141,15 @@ def main() -> None:
     parser.add_argument("--shifts", default="",
                         help="comma-separated pixel shifts of the frames, e.g. 4,10,20 "
                              "(image checkpoints only)")
+    parser.add_argument("--moves", default="",
+                        help="comma-separated object moves in mm, e.g. 10,25,50, the frames "
+                             "rendered again (image checkpoints only)")
     parser.add_argument("--offsets", default="",
                         help="comma-separated object offsets in mm, e.g. 5,10,25 (state "
                              "checkpoints reading object_in_tcp only)")
     args = parser.parse_args()
     shifts = _numbers(parser, "--shifts", args.shifts, int)
+    moves = _numbers(parser, "--moves", args.moves, float)
     offsets = _numbers(parser, "--offsets", args.offsets, float)
     torch.set_num_threads(1)
     ckpt = load_checkpoint(args.checkpoint)
@@ -98,9 +158,10 @@ def main() -> None:
         parser.error(f"{args.checkpoint} is a {cfg.algo} checkpoint, not LEGATO or BC-RNN "
                      f"(scripts/chunk_fit.py fits Diffusion Policy checkpoints)")
     image_keys = [k for k in cfg.obs_keys if k in IMAGE_KEYS]
-    if shifts and not image_keys:
-        parser.error(f"--shifts needs an image checkpoint; {args.checkpoint} reads "
-                     f"{', '.join(cfg.obs_keys)}")
+    for flag, values in (("--shifts", shifts), ("--moves", moves)):
+        if values and not image_keys:
+            parser.error(f"{flag} needs an image checkpoint; {args.checkpoint} reads "
+                         f"{', '.join(cfg.obs_keys)}")
     if offsets and "object_in_tcp" not in cfg.obs_keys:
         parser.error(f"--offsets needs a state checkpoint reading object_in_tcp; "
                      f"{args.checkpoint} reads {', '.join(cfg.obs_keys)}")
@@ -113,8 +174,11 @@ def main() -> None:
     trans, rot, step, agree = [], [], [], []
     labels = [f"frames shifted {k} px" for k in shifts] + \
         [f"objects moved {k:g} mm" for k in offsets]
-    moved: dict[str, list[float]] = {label: [] for label in labels}
+    moved_labels = [f"objects moved {k:g} mm, frames rendered again" for k in moves]
+    renderer = SceneRenderer(args.data, image_keys) if moves else None
+    moved: dict[str, list[float]] = {label: [] for label in labels + moved_labels}
     misplaced: list[np.ndarray] = []  # per step, each body's position error (mm)
+    redrawn: list[float] = []  # per frame, the fraction of pixels rendering again changed
     with torch.no_grad():
         for i in picks:
             item = data[int(i)]
@@ -133,7 +197,7 @@ def main() -> None:
                 misplaced.append(1000 * np.linalg.norm(error, axis=-1))
             # One random direction per window for every perturbation of it.
             angle = rng.uniform(0, 2 * np.pi)
-            direction = rng.normal(size=3) if offsets else np.zeros(3)
+            direction = rng.normal(size=3) if offsets or moves else np.zeros(3)
             direction /= max(np.linalg.norm(direction), 1e-12)
             perturbed = [{key: shift_frames(v, round(k * np.sin(angle)), round(k * np.cos(angle)))
                           if key in image_keys else v for key, v in item["obs"].items()}
@@ -141,6 +205,21 @@ def main() -> None:
             perturbed += [{key: offset_objects(v, k / 1000 * direction)
                            if key == "object_in_tcp" else v for key, v in item["obs"].items()}
                           for k in offsets]
+            if renderer is not None:
+                # Against the same frames rendered unmoved, so that only the move differs.
+                name, start = data.window(int(i))
+                steps = np.minimum(np.arange(start, start + cfg.seq_length),
+                                   start + int(mask.sum()) - 1)
+                rendered = [{**item["obs"], **renderer.frames(name, steps, k / 1000 * direction)}
+                            for k in (0.0, *moves)]
+                acted_here = predict(policy, rendered[0]).double().numpy()[mask]
+                for key in image_keys:  # how well rendering again reproduces the recording
+                    redrawn += list((rendered[0][key] != item["obs"][key])[mask]
+                                    .flatten(1).float().mean(1).numpy())
+                for label, obs in zip(moved_labels, rendered[1:], strict=True):
+                    answer = predict(policy, obs).double().numpy()[mask]
+                    moved[label] += list(1000 * np.linalg.norm(answer[:, :3] - acted_here[:, :3],
+                                                               axis=1))
             for label, obs in zip(labels, perturbed, strict=True):
                 answer = predict(policy, obs).double().numpy()[mask]
                 moved[label] += list(1000 * np.linalg.norm(answer[:, :3] - acted[:, :3], axis=1))
@@ -160,6 +239,10 @@ def main() -> None:
             print(f"  the {names[body]} located from the frames: position error median "
                   f"{np.median(errors[:, body]):.1f} mm, 90th percentile "
                   f"{np.percentile(errors[:, body], 90):.1f} mm")
+    if redrawn:
+        print(f"  frames rendered again from the recorded states: {100 * np.median(redrawn):.2f} % "
+              f"of a frame's pixels differ from the recorded frame (median; max "
+              f"{100 * np.max(redrawn):.2f} %)")
     for label, values in moved.items():
         print(f"  {label}: the translation moves median {np.median(values):.2f} mm, "
               f"90th percentile {np.percentile(values, 90):.2f} mm")

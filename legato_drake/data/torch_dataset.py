@@ -129,6 +129,10 @@ class DemoSequenceDataset(Dataset):
     def __len__(self) -> int:
         return len(self._index)
 
+    def window(self, i: int) -> tuple[str, int]:
+        """Item ``i``'s demo and the index of its first sample in that demo."""
+        return self._index[i]
+
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
         state["_file"], state["_pid"] = None, None  # h5py handles do not cross processes
