@@ -127,8 +127,8 @@ class Scenario:
     """``controller: policy`` only: how far (metres) the commanded gripper pose may lead the
     measured gripper; a step that would take it further is shortened along its direction to
     that distance (``GripperTargetIntegrator``). 0 leaves it unbounded: where a robot cannot
-    follow, the target then keeps integrating the policy's deltas and runs away (docs/results/state_policies.md:
-    40 cm on Spot)."""
+    follow, the target then keeps integrating the policy's deltas and runs away
+    (docs/results/state_policies.md: 40 cm on Spot)."""
     expert_noise: ExpertNoiseConfig = field(default_factory=ExpertNoiseConfig)
     """Perturbations of ``controller: scripted`` (seeded by ``seed``); none by default."""
     camera: CameraConfig = field(default_factory=CameraConfig)

@@ -1,4 +1,5 @@
-"""A learned-policy table of the README and docs/results/ (Markdown) from results files of ``legato-drake evaluate``.
+"""A learned-policy table (Markdown) of the README and docs/results/ from results files of
+``legato-drake evaluate``.
 
     python scripts/eval_table.py results/lid/*.json [--task lid]
 
