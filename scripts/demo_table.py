@@ -1,5 +1,6 @@
-"""The scripted-expert table (Markdown) of docs/results/scripted_experts.md from the JSON files
-of ``legato-drake demo``.
+"""The scripted-expert table (Markdown) from the JSON files of ``legato-drake demo``.
+
+docs/results/scripted_experts.md holds its output.
 
     legato-drake demo --embodiment all --task lid --seeds 0-49 --no-replay --no-camera \
         --workers 2 --json results/demo/lid.json

@@ -1,5 +1,6 @@
-"""A learned-policy table (Markdown) of the README and docs/results/ from results files of
-``legato-drake evaluate``.
+"""A learned-policy table (Markdown) from results files of ``legato-drake evaluate``.
+
+The README and docs/results/ hold its output.
 
     python scripts/eval_table.py results/lid/*.json [--task lid]
 
