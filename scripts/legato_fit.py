@@ -87,6 +87,7 @@ class SceneRenderer:
             text = self._file[f"data/{demo}"].attrs["scenario"]
             built = build_diagram(scenario_from_yaml_text(text, f"{demo}'s scenario"))
             context = built.diagram.CreateDefaultContext()
+            # The root context is kept: the plant's and the camera's contexts live inside it.
             self._built[demo] = (built, context,
                                  built.plant.GetMyMutableContextFromRoot(context),
                                  built.camera.GetMyContextFromRoot(context),
