@@ -3,6 +3,7 @@ image policy's action depends on where things are in its frames.
 
     python scripts/legato_fit.py RUN/selected.pt DATA.hdf5 [--split valid] [--windows 100]
                                  [--shifts 4,10,20 | --moves 10,25,50 | --offsets 10,25,50]
+                                 [--phases]
 
 For ``--windows`` random windows of ``seq_length`` steps of the demos in ``--split``
 (seeded), the policy reads the window's observations as it would at rollout (evaluation
@@ -32,6 +33,11 @@ For an image checkpoint trained with the auxiliary object loss (``object_aux_wei
 script also prints how far the objects' positions that its head reads from the frames are
 from the true ones (median and 90th percentile, mm, per object body): whether the encoder
 locates what it sees.
+
+``--phases`` breaks the translation error (and the object head's error) down by where each
+step lies relative to the demo's first grasp command: far from the object, on the final
+approach, just after the grasp, and the rest: where along the task the fit is worst, and
+whether the encoder locates the object better as the gripper nears it.
 """
 
 from __future__ import annotations
@@ -125,6 +131,24 @@ def predict(policy: RecurrentGMMPolicy, obs: dict[str, torch.Tensor]) -> torch.T
     return policy.mode_action(out)[0]
 
 
+PHASES = ((-np.inf, -30, "more than 30 steps before the grasp"),
+          (-30, -10, "30 to 10 steps before"),
+          (-10, 0, "the last 10 steps before"),
+          (0, 30, "the first 30 steps after"),
+          (30, np.inf, "more than 30 steps after"))
+"""Phases of a demo for ``--phases``: (from, to, label) in steps from its first grasp command."""
+
+
+def grasp_steps(data: DemoSequenceDataset, path: Path) -> dict[str, int]:
+    """Each demo's index of its first closing grasp command (its length if it never closes)."""
+    with h5py.File(path, "r") as f:
+        closes = {}
+        for name in data.demos:
+            grasp = f[f"data/{name}/actions"][:, 6] > 0.5
+            closes[name] = int(np.argmax(grasp)) if grasp.any() else len(grasp)
+    return closes
+
+
 def _numbers(parser: argparse.ArgumentParser, flag: str, text: str, kind: type) -> list:
     """The comma-separated numbers of ``flag`` (a one-line parser error otherwise)."""
     try:
@@ -148,6 +172,8 @@ def main() -> None:
     parser.add_argument("--offsets", default="",
                         help="comma-separated object offsets in mm, e.g. 5,10,25 (state "
                              "checkpoints reading object_in_tcp only)")
+    parser.add_argument("--phases", action="store_true",
+                        help="break the errors down by steps from the demo's grasp")
     args = parser.parse_args()
     shifts = _numbers(parser, "--shifts", args.shifts, int)
     moves = _numbers(parser, "--moves", args.moves, float)
@@ -180,6 +206,8 @@ def main() -> None:
     moved: dict[str, list[float]] = {label: [] for label in labels + moved_labels}
     misplaced: list[np.ndarray] = []  # per step, each body's position error (mm)
     redrawn: list[float] = []  # per frame, the fraction of pixels rendering again changed
+    closes = grasp_steps(data, args.data) if args.phases else {}
+    from_grasp: list[np.ndarray] = []  # per step, its index relative to the demo's grasp
     with torch.no_grad():
         for i in picks:
             item = data[int(i)]
@@ -190,6 +218,9 @@ def main() -> None:
             rot += list(np.degrees(np.linalg.norm(acted[:, 3:6] - shown[:, 3:6], axis=1)))
             step += list(1000 * np.linalg.norm(shown[:, :3], axis=1))
             agree += list(acted[:, 6] == (shown[:, 6] > 0.5))
+            if closes:
+                name, start = data.window(int(i))
+                from_grasp.append(start + np.flatnonzero(mask) - closes[name])
             if located:
                 n = VALUES_PER_BODY["object_in_tcp"]
                 error = (policy.estimate_objects({k: v[None] for k, v in item["obs"].items()})[0]
@@ -240,6 +271,22 @@ def main() -> None:
             print(f"  the {names[body]} located from the frames: position error median "
                   f"{np.median(errors[:, body]):.1f} mm, 90th percentile "
                   f"{np.percentile(errors[:, body], 90):.1f} mm")
+    if from_grasp:
+        where = np.concatenate(from_grasp)
+        errors = np.concatenate(misplaced) if misplaced else None
+        print("  by phase (steps from the demo's first grasp command):")
+        for low, high, label in PHASES:
+            here = (where >= low) & (where < high)
+            if not here.any():
+                continue
+            line = (f"    {label}: {here.sum()} steps, translation error median "
+                    f"{np.median(np.asarray(trans)[here]):.2f} mm (the demonstrated step "
+                    f"{np.median(np.asarray(step)[here]):.2f} mm)")
+            if errors is not None:
+                line += ", objects located to " + ", ".join(
+                    f"{np.median(errors[here, body]):.1f}" for body in range(errors.shape[1])
+                ) + " mm (median, in the order above)"
+            print(line)
     if redrawn:
         print(f"  frames rendered again from the recorded states: {100 * np.median(redrawn):.2f} % "
               f"of a frame's pixels differ from the recorded frame (median; max "
