@@ -12,7 +12,7 @@ import torch
 from legato_drake.cli import main
 from legato_drake.data.layout import DatasetError
 from legato_drake.errors import ConfigError
-from legato_drake.learning.checkpoint import CheckpointError, load_checkpoint
+from legato_drake.learning.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from legato_drake.learning.config import apply_overrides, load_config, save_config
 from legato_drake.learning.train import learning_rate, train
 from tests.learning_helpers import synthetic_dataset, tiny_config
@@ -115,6 +115,15 @@ def test_training_is_seeded_logged_and_checkpointed(tmp_path, data):
         torch.testing.assert_close(ckpt.policy.state_dict()[name], tensor)
     assert (tmp_path / "a" / "best.pt").is_file()
     assert load_config(tmp_path / "a" / "config.yaml") == config
+
+
+def test_a_checkpoint_remembers_every_scene_it_was_chosen_on(tmp_path, data):
+    train(tiny_config(steps=2), data, tmp_path / "run", progress=False)
+    ckpt = load_checkpoint(tmp_path / "run" / "last.pt")
+    ckpt.selection = {"seeds": [5000, 5001], "shipped_on": [5010, 5011]}
+    save_checkpoint(tmp_path / "shipped.pt", ckpt)
+    assert load_checkpoint(tmp_path / "shipped.pt").used_seeds == [0, 1, 2, 3, 5000, 5001,
+                                                                    5010, 5011]
 
 
 def test_an_image_policy_trains_with_the_object_loss_and_acts_without_the_poses(tmp_path,

@@ -7,7 +7,9 @@ A checkpoint is a ``torch.save``d dict written atomically (a reader never sees h
      "stats": {key: {"mean": [...], "std": [...]}}, "step": int, "best_valid": float,
      "model": state_dict, "optimizer": state_dict | None, "train_seeds": [int, ...],
      "data": str (the dataset it was trained on),
-     "selection": {"seeds": [int, ...], ...} (only in a checkpoint chosen by rollouts),
+     "selection": {"seeds": [int, ...], ...} (only in a checkpoint chosen by rollouts;
+                   "shipped_on": [int, ...], the scene seeds on which a shipped file was
+                   chosen among training seeds, ``scripts/ship_checkpoint.py --chosen-on``),
      "camera": {CameraConfig fields} (an image policy's camera, from its dataset),
      "rollout_only": bool (a shipped file: "model" holds only what a rollout needs,
                      ``PolicyFamily.rollout_state_dict``; it cannot be trained further)}
@@ -50,7 +52,9 @@ class Checkpoint:
     data: str = ""
     selection: dict = field(default_factory=dict)
     """How the checkpoint was chosen by rollouts (``legato-drake select``): its validation
-    scene ``seeds`` (which evaluation must not reuse), the candidates and their successes."""
+    scene ``seeds`` (which evaluation must not reuse), the candidates and their successes;
+    for a shipped file chosen among training seeds, also the scenes of that choice
+    (``shipped_on``)."""
     camera: dict = field(default_factory=dict)
     """The camera an image policy's training images were rendered with (``CameraConfig``
     fields: model, field of view, size; empty for state policies or datasets that do not
@@ -61,8 +65,10 @@ class Checkpoint:
 
     @property
     def used_seeds(self) -> list[int]:
-        """Scene seeds this checkpoint has seen: its training demos' and its selection's."""
-        return sorted({*self.train_seeds, *self.selection.get("seeds", [])})
+        """Scene seeds this checkpoint has seen: its training demos', its selection's and
+        those it was shipped on."""
+        return sorted({*self.train_seeds, *self.selection.get("seeds", []),
+                       *self.selection.get("shipped_on", [])})
 
 
 def save_checkpoint(path: str | Path, ckpt: Checkpoint,
