@@ -139,11 +139,11 @@ PHASES = ((-np.inf, -30, "more than 30 steps before the grasp"),
 """Phases of a demo for ``--phases``: (from, to, label) in steps from its first grasp command."""
 
 
-def grasp_steps(data: DemoSequenceDataset, path: Path) -> dict[str, int]:
+def grasp_steps(path: Path, demos: list[str]) -> dict[str, int]:
     """Each demo's index of its first closing grasp command (its length if it never closes)."""
+    closes = {}
     with h5py.File(path, "r") as f:
-        closes = {}
-        for name in data.demos:
+        for name in demos:
             grasp = f[f"data/{name}/actions"][:, 6] > 0.5
             closes[name] = int(np.argmax(grasp)) if grasp.any() else len(grasp)
     return closes
@@ -206,7 +206,7 @@ def main() -> None:
     moved: dict[str, list[float]] = {label: [] for label in labels + moved_labels}
     misplaced: list[np.ndarray] = []  # per step, each body's position error (mm)
     redrawn: list[float] = []  # per frame, the fraction of pixels rendering again changed
-    closes = grasp_steps(data, args.data) if args.phases else {}
+    closes = grasp_steps(args.data, data.demos) if args.phases else {}
     from_grasp: list[np.ndarray] = []  # per step, its index relative to the demo's grasp
     with torch.no_grad():
         for i in picks:
@@ -263,8 +263,8 @@ def main() -> None:
     print(f"  rotation error median {np.median(rot):.2f} deg, 90th percentile "
           f"{np.percentile(rot, 90):.2f} deg")
     print(f"  grasp agreement {np.mean(agree):.3f}")
-    if misplaced:
-        errors = np.concatenate(misplaced)
+    errors = np.concatenate(misplaced) if misplaced else None
+    if errors is not None:
         with h5py.File(args.data, "r") as f:
             names = json.loads(f[f"data/{data.demos[0]}"].attrs["object_bodies"])
         for body in range(errors.shape[1]):
@@ -273,15 +273,15 @@ def main() -> None:
                   f"{np.percentile(errors[:, body], 90):.1f} mm")
     if from_grasp:
         where = np.concatenate(from_grasp)
-        errors = np.concatenate(misplaced) if misplaced else None
+        trans_mm, step_mm = np.asarray(trans), np.asarray(step)
         print("  by phase (steps from the demo's first grasp command):")
         for low, high, label in PHASES:
             here = (where >= low) & (where < high)
             if not here.any():
                 continue
             line = (f"    {label}: {here.sum()} steps, translation error median "
-                    f"{np.median(np.asarray(trans)[here]):.2f} mm (the demonstrated step "
-                    f"{np.median(np.asarray(step)[here]):.2f} mm)")
+                    f"{np.median(trans_mm[here]):.2f} mm (the demonstrated step "
+                    f"{np.median(step_mm[here]):.2f} mm)")
             if errors is not None:
                 line += ", objects located to " + ", ".join(
                     f"{np.median(errors[here, body]):.1f}" for body in range(errors.shape[1])
