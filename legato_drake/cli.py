@@ -424,7 +424,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
                        _names(args.tasks, TASKS, "task"), trials, out,
                        workers=args.workers, replays=args.replays, method=args.method,
                        seed0=seed0, duration=args.duration, overwrite=args.overwrite,
-                       overrides=args.set, max_target_lead=args.max_target_lead)
+                       overrides=args.set, max_target_lead=args.max_target_lead,
+                       seen_scenes=args.seen_scenes)
         trials = doc["trials"]
         png = plot_success(trials, out / f"{doc['method']}.png")
         log.info("wrote %s", results_path(out, doc["method"]))
@@ -704,6 +705,10 @@ def build_parser() -> argparse.ArgumentParser:
                           help="how the policy acts (repeatable): action_horizon (steps "
                                "executed per chunk) or inference_steps (DDIM steps), e.g. "
                                "inference_steps=3; the trials run a copy of the checkpoint")
+    evaluate.add_argument("--seen-scenes", action="store_true",
+                          help="allow scene seeds the checkpoint was trained or selected on "
+                               "(a diagnostic: success on its own training scenes, e.g. "
+                               "--seeds 0-49); the results file lists them")
     evaluate.add_argument("--overwrite", action="store_true",
                           help="start OUT/<method>.json afresh; without it, a results file "
                                "of another checkpoint, --duration, --seed0, --set, "

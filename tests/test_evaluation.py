@@ -90,6 +90,20 @@ def test_training_seeds_and_foreign_results_are_refused(tmp_path, checkpoint):
         load_results(tmp_path / "x.json")
 
 
+def test_training_scenes_run_only_as_a_labelled_diagnostic(tmp_path, checkpoint, monkeypatch):
+    """``seen_scenes`` (``--seen-scenes``) runs the seeds the checkpoint trained on and says
+    which they were; other seeds are listed as unseen."""
+    monkeypatch.setattr(evaluation, "run_trial", _fake_trial)
+    doc = evaluate(checkpoint, ["abstract"], ["lid"], 2, tmp_path, seed0=1, progress=False,
+                   seen_scenes=True)
+    assert [t["seed"] for t in doc["trials"]] == [1, 2]
+    assert doc["seen_scenes"] == [1, 2]
+    assert load_results(results_path(tmp_path, "tiny"))["seen_scenes"] == [1, 2]
+    fresh = evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path / "b", progress=False,
+                     seen_scenes=True)
+    assert fresh["seen_scenes"] == []
+
+
 def test_a_changed_checkpoint_duration_or_target_lead_is_not_mixed_in(tmp_path, checkpoint,
                                                                      monkeypatch):
     monkeypatch.setattr(evaluation, "run_trial", _fake_trial)

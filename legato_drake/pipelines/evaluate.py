@@ -135,7 +135,8 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
              duration: float | None = None, progress: bool | None = None,
              overwrite: bool = False, executor: Executor | None = None,
              overrides: list[str] | None = None,
-             max_target_lead: float = DEFAULT_MAX_TARGET_LEAD) -> dict:
+             max_target_lead: float = DEFAULT_MAX_TARGET_LEAD,
+             seen_scenes: bool = False) -> dict:
     """Runs ``trials`` closed-loop trials of the policy per embodiment and task (skipping
     those already in the results file), in ``workers`` processes (or on ``executor``);
     returns the results document, rewritten after every trial. The first ``replays`` trials
@@ -143,7 +144,10 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
     (``["inference_steps=3"]``) change how the policy acts (its config's ``ROLLOUT_FIELDS``
     only). ``max_target_lead`` bounds the commanded gripper's lead (``Scenario``). A results
     file of another checkpoint, ``duration``, ``seed0``, rollout settings, target lead
-    or trial set is refused unless ``overwrite`` (which starts it afresh)."""
+    or trial set is refused unless ``overwrite`` (which starts it afresh). Scene seeds the
+    checkpoint was trained, selected or shipped on are refused unless ``seen_scenes`` (a
+    diagnostic: how the policy does on its own training scenes); the results file lists
+    those it ran under ``seen_scenes``."""
     from legato_drake.learning.checkpoint import (  # torch: only when needed
         load_checkpoint,
         with_rollout_settings,
@@ -157,10 +161,13 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
     method = method or ckpt.config.name
     seeds = [seed0 + i for i in range(trials)]
     overlap = sorted(set(seeds) & set(ckpt.used_seeds))
-    if overlap:
+    if overlap and seen_scenes:
+        log.warning("%d of the %d scene seeds were seen by %s in training or selection: a "
+                    "diagnostic, not an evaluation", len(overlap), len(seeds), checkpoint)
+    elif overlap:
         raise ConfigError(f"evaluation seeds {overlap[:5]} were used for training or "
                           f"checkpoint selection ({checkpoint}); choose --seed0 past "
-                          f"{max(ckpt.used_seeds)}")
+                          f"{max(ckpt.used_seeds)}, or --seen-scenes for a diagnostic")
     out = Path(out)
     path = results_path(out, method)
     doc = {"format": FORMAT, "method": method, "checkpoint": str(checkpoint),
@@ -168,9 +175,10 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
            "config": config.to_dict(), "seed0": seed0, "duration": duration,
            "max_target_lead": max_target_lead,
            "rollout": {name: getattr(config, name) for name in ROLLOUT_FIELDS},
-           "trials": []}
+           "seen_scenes": sorted(overlap), "trials": []}
     if path.is_file() and not overwrite:
-        old = {"max_target_lead": 0.0, **load_results(path)}  # older files: unbounded
+        # older files: an unbounded lead, no seen scenes
+        old = {"max_target_lead": 0.0, "seen_scenes": [], **load_results(path)}
         for key, what in (("checkpoint", "checkpoint"), ("checkpoint_sha256", "checkpoint"),
                           ("duration", "--duration"), ("seed0", "--seed0"),
                           ("rollout", "--set"), ("max_target_lead", "--max-target-lead")):
