@@ -7,8 +7,10 @@ Reads the evaluation trials (not the selection rollouts) of ``METHOD`` in an exp
 ``trials.jsonl`` and prints, per training seed, its successes and its failures by condition
 (``summary.reason_kind``); for the lid, the trials failed by the lid's offset from the
 pot's axis (``center_offset``) split at ``--carried-cm`` (20 cm: a lid that far from the
-axis lies where it started, never carried), with the range and median of those below it.
-Then, for each pair of training seeds, on how many robot × scene cells both fail against how
+axis lies where it started, never carried), with the range and median of those below it;
+and per robot, how far from the axis the carried lids were set down, successes included
+(median and 90th percentile of ``center_offset`` below ``--carried-cm``): whether a robot
+places the lid as precisely as another. Then, for each pair of training seeds, on how many robot × scene cells both fail against how
 many would if their failures were independent at their rates: whether failing is a property
 of hard scenes or of each closed loop.
 """
@@ -59,6 +61,15 @@ def main() -> None:
             print(f"  of those, {far.sum()} at {args.carried_cm:g} cm or more from the axis "
                   f"(never carried)" + (f", {len(near)} at {near.min():.1f}-{near.max():.1f} cm "
                                         f"(median {np.median(near):.1f})" if len(near) else ""))
+        placed: dict[str, list[float]] = defaultdict(list)
+        for t in group:
+            offset = 100 * (t.get("metrics") or {}).get("center_offset", np.inf)
+            if offset < args.carried_cm:
+                placed[t["embodiment"]].append(offset)
+        if placed:
+            print("  carried lids set down from the axis, median (p90) cm: " + ", ".join(
+                f"{robot} {np.median(v):.2f} ({np.percentile(v, 90):.2f})"
+                for robot, v in placed.items()))
         outcome[seed] = {(t["embodiment"], t["seed"]): t["success"] for t in group}
     for a, b in itertools.combinations(sorted(outcome), 2):
         cells = sorted(set(outcome[a]) & set(outcome[b]))
