@@ -3,8 +3,9 @@
 Times one optimizer step (forward, loss, backward, Adam) of a batch of 16 sequences x 20 steps
 for each config, once with ``invariant_weight`` 0 and once with the config's weight, on random
 observations (the time does not depend on the data), and prints the ratio. For the image
-configs it then times the step (without L_invar) at each image lever: the crop
-(``image_crop``) and the trunk's precision (``encoder_precision``), and prints ms per step,
+configs it then times the step (without L_invar) at each image lever: the input size (the
+whole 128² view, a crop of it, ``image_crop``, or the whole view scaled down,
+``image_resize``) and the trunk's precision (``encoder_precision``), and prints ms per step,
 images per second (2 cameras x 320 frames per step) and the speed-up over the uncropped
 float32 step. The paper config (ResNet-18 trunks) takes tens of seconds per step on a 2-core
 CPU: it runs with ``--configs legato_paper`` (and ``--device cuda`` where there is a GPU).
@@ -59,7 +60,7 @@ def time_steps(config, steps: int, device: str) -> float:
     policy = RecurrentGMMPolicy(config, stats).to(device)
     optimizer = torch.optim.Adam(policy.parameters(), lr=config.lr)
     # L_invar reads the commanded pose deltas whether or not the policy observes them.
-    batch = random_batch(list(dict.fromkeys([*config.obs_keys, *HISTORY_KEYS])), device)
+    batch = random_batch(list(dict.fromkeys([*config.dataset_keys, *HISTORY_KEYS])), device)
     times = []
     for _ in range(steps + 2):
         start = time.perf_counter()
@@ -73,9 +74,10 @@ def time_steps(config, steps: int, device: str) -> float:
     return float(np.median(times[2:]))
 
 
-IMAGE_LEVERS = [(0, "float32"), (0, "bfloat16"), (96, "float32"), (84, "float32"),
-                (84, "bfloat16")]
-"""(image_crop, encoder_precision) pairs timed for the image configs."""
+IMAGE_LEVERS = [(0, 0, "float32"), (0, 0, "bfloat16"), (0, 96, "float32"), (0, 84, "float32"),
+                (0, 84, "bfloat16"), (84, 0, "bfloat16")]
+"""(image_resize, image_crop, encoder_precision) triples timed for the image configs; the
+last is the small image config's own (the whole view scaled to 84², no crop)."""
 
 
 def main() -> None:
@@ -102,23 +104,26 @@ def main() -> None:
         if config.obs_mode != "image":
             continue
         base = None
-        for crop, precision in IMAGE_LEVERS:
+        for resize, crop, precision in IMAGE_LEVERS:
             seconds = time_steps(dataclasses.replace(
-                config, invariant_weight=0.0, image_crop=crop, encoder_precision=precision),
-                args.steps, args.device)
+                config, invariant_weight=0.0, image_resize=resize, image_crop=crop,
+                encoder_precision=precision), args.steps, args.device)
             base = base or seconds
             images = 2 * BATCH * SEQUENCE / seconds
-            levers.append([name, crop or 128, precision, 1e3 * seconds, images,
+            size = ("scaled to " if resize else "crop " if crop else "whole ") + \
+                str(resize or crop or 128)
+            levers.append([name, size, precision, 1e3 * seconds, images,
                            f"{base / seconds:.1f}x"])
-            records.append(dict(config=name, image_crop=crop, encoder_precision=precision,
-                                ms_per_step=1e3 * seconds, images_per_s=images))
+            records.append(dict(config=name, image_resize=resize, image_crop=crop,
+                                encoder_precision=precision, ms_per_step=1e3 * seconds,
+                                images_per_s=images))
     print(f"batch {BATCH} x {SEQUENCE} steps, {args.device}, torch {torch.__version__}, "
           f"{args.threads} thread(s), median of {args.steps} steps")
     print(format_table(["config", "ms/step without L_invar", "ms/step with L_invar",
                         "L_invar adds %"], rows))
     if levers:
         print()
-        print(format_table(["config", "image px", "precision", "ms/step", "images/s",
+        print(format_table(["config", "images", "precision", "ms/step", "images/s",
                             "speed-up"], levers))
     if args.json is not None:
         args.json.write_text(json.dumps(dict(threads=args.threads, device=args.device,

@@ -10,9 +10,9 @@ pot's axis (``center_offset``) split at ``--carried-cm`` (20 cm: a lid that far 
 axis lies where it started, never carried), with the range and median of those below it;
 and per robot, how far from the axis the carried lids were set down, successes included
 (median and 90th percentile of ``center_offset`` below ``--carried-cm``): whether a robot
-places the lid as precisely as another. Then, for each pair of training seeds, on how many robot × scene cells both fail against how
-many would if their failures were independent at their rates: whether failing is a property
-of hard scenes or of each closed loop.
+places the lid as precisely as another. Then, for each pair of training seeds, on how many
+robot × scene cells both fail against how many would if their failures were independent at
+their rates: whether failing is a property of hard scenes or of each closed loop.
 """
 
 from __future__ import annotations
