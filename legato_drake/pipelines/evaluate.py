@@ -177,8 +177,7 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
            "rollout": {name: getattr(config, name) for name in ROLLOUT_FIELDS},
            "seen_scenes": sorted(overlap), "trials": []}
     if path.is_file() and not overwrite:
-        # older files: an unbounded lead, no seen scenes
-        old = {"max_target_lead": 0.0, "seen_scenes": [], **load_results(path)}
+        old = {"max_target_lead": 0.0, **load_results(path)}  # older files: unbounded
         for key, what in (("checkpoint", "checkpoint"), ("checkpoint_sha256", "checkpoint"),
                           ("duration", "--duration"), ("seed0", "--seed0"),
                           ("rollout", "--set"), ("max_target_lead", "--max-target-lead")):
