@@ -7,9 +7,10 @@ policy training, of which encoder settings (crop, resize, trunk) to train with.
 
 For each ``--variant NAME OVERRIDE...`` (overrides of the config, as ``legato-drake train
 --set`` takes them) the script trains, from scratch, the two cameras' encoders of that config
-(``ImageEncoder.from_config``) and one linear head on their concatenated features to regress
-the normalised ``object_in_tcp`` of single frames (the image policies' auxiliary object loss,
-without the policy: what the encoder alone can learn to locate), on the demos of the
+(``ImageEncoder.from_config``) and a read-out on their concatenated features (``--head``:
+linear, as the policies' auxiliary head, or an MLP) to regress the normalised
+``object_in_tcp`` of single frames (the image policies' auxiliary object loss, without the
+policy: what the encoder alone can learn to locate), on the demos of the
 ``train`` split, with Adam and a learning rate decayed along a half cosine. It then prints,
 over every frame of the ``valid`` split (evaluation mode: the centre crop), how far each
 object body's position read by the head is from the true one (median and 90th percentile,
@@ -35,25 +36,24 @@ from torch import nn
 from tqdm import tqdm
 
 from legato_drake.data.derived import VALUES_PER_BODY
+from legato_drake.data.layout import IMAGE_KEYS
 from legato_drake.data.torch_dataset import DemoSequenceDataset, image_to_tensor
 from legato_drake.errors import ConfigError
 from legato_drake.learning.config import apply_overrides, load_config
 from legato_drake.learning.encoders import ImageEncoder
 from legato_drake.learning.normalization import Normalizer
 
-IMAGES = ("left_gray", "right_gray")
-
 
 def frames_of(path: Path, split: str) -> tuple[torch.Tensor, torch.Tensor]:
     """Every step of ``split``'s demos: uint8 frames (N, 2, 1, H, W) and ``object_in_tcp``
     (N, 9k) float32."""
-    data = DemoSequenceDataset(path, (*IMAGES, "object_in_tcp"), seq_length=1, split=split,
+    data = DemoSequenceDataset(path, (*IMAGE_KEYS, "object_in_tcp"), seq_length=1, split=split,
                                cache_images=True, image_dtype="uint8")
     frames, targets = [], []
     for name in data.demos:
         arrays = data._data[name]  # noqa: SLF001 - the cached arrays, read once
         frames.append(torch.stack([image_to_tensor(arrays[f"obs/{k}"], "uint8")
-                                   for k in IMAGES], 1))
+                                   for k in IMAGE_KEYS], 1))
         targets.append(torch.from_numpy(arrays["obs/object_in_tcp"]))
     return torch.cat(frames), torch.cat(targets)
 
@@ -65,8 +65,8 @@ class Probe(nn.Module):
 
     def __init__(self, config, targets: torch.Tensor, head: str = "linear"):
         super().__init__()
-        self.encoders = nn.ModuleList(ImageEncoder.from_config(config) for _ in IMAGES)
-        width = config.feature_dim * len(IMAGES)
+        self.encoders = nn.ModuleList(ImageEncoder.from_config(config) for _ in IMAGE_KEYS)
+        width = config.feature_dim * len(IMAGE_KEYS)
         self.head = nn.Linear(width, targets.shape[1]) if head == "linear" else nn.Sequential(
             nn.Linear(width, 256), nn.ReLU(), nn.Linear(256, 256), nn.ReLU(),
             nn.Linear(256, targets.shape[1]))
