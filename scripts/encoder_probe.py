@@ -2,13 +2,15 @@
 policy training, of which encoder settings (crop, resize, trunk) to train with.
 
     python scripts/encoder_probe.py DATA.hdf5 [--config configs/legato_small_image.yaml]
-        --variant crop44 image_crop=84 --variant play8 image_resize=92 image_crop=84 ...
+        --variant crop44 image_resize=0 image_crop=84 --variant play8 image_resize=92 \\
+        image_crop=84 ...
         [--head linear|mlp] [--steps 2000] [--batch 64] [--seed 0] [--json FILE]
 
 For each ``--variant NAME OVERRIDE...`` (overrides of the config, as ``legato-drake train
---set`` takes them) the script trains, from scratch, the two cameras' encoders of that config
-(``ImageEncoder.from_config``) and a read-out on their concatenated features (``--head``:
-linear, as the policies' auxiliary head, or an MLP) to regress the normalised
+--set`` takes them; the small image config scales to 84² by default, so a crop of the whole
+view needs ``image_resize=0``) the script trains, from scratch, the two cameras' encoders of
+that config (``ImageEncoder.from_config``) and a read-out on their concatenated features
+(``--head``: linear, as the policies' auxiliary head, or an MLP) to regress the normalised
 ``object_in_tcp`` of single frames (the image policies' auxiliary object loss, without the
 policy: what the encoder alone can learn to locate), on the demos of the
 ``train`` split, with Adam and a learning rate decayed along a half cosine. It then prints,
@@ -33,28 +35,27 @@ import h5py
 import numpy as np
 import torch
 from torch import nn
+from torch.utils.data import DataLoader
 from tqdm import tqdm
 
 from legato_drake.data.derived import VALUES_PER_BODY
 from legato_drake.data.layout import IMAGE_KEYS
-from legato_drake.data.torch_dataset import DemoSequenceDataset, image_to_tensor
+from legato_drake.data.torch_dataset import DemoSequenceDataset
 from legato_drake.errors import ConfigError
-from legato_drake.learning.config import apply_overrides, load_config
+from legato_drake.learning.config import LearningConfig, apply_overrides, load_config
 from legato_drake.learning.encoders import ImageEncoder
-from legato_drake.learning.normalization import Normalizer
+from legato_drake.learning.normalization import OBS_MIN_STD, Normalizer, compute_stats
 
 
 def frames_of(path: Path, split: str) -> tuple[torch.Tensor, torch.Tensor]:
     """Every step of ``split``'s demos: uint8 frames (N, 2, 1, H, W) and ``object_in_tcp``
-    (N, 9k) float32."""
+    (N, 9k) float32, read once through the training dataset."""
     data = DemoSequenceDataset(path, (*IMAGE_KEYS, "object_in_tcp"), seq_length=1, split=split,
-                               cache_images=True, image_dtype="uint8")
+                               pad_seq_length=False, cache_images=True, image_dtype="uint8")
     frames, targets = [], []
-    for name in data.demos:
-        arrays = data._data[name]  # noqa: SLF001 - the cached arrays, read once
-        frames.append(torch.stack([image_to_tensor(arrays[f"obs/{k}"], "uint8")
-                                   for k in IMAGE_KEYS], 1))
-        targets.append(torch.from_numpy(arrays["obs/object_in_tcp"]))
+    for batch in DataLoader(data, batch_size=1024):
+        frames.append(torch.stack([batch["obs"][k][:, 0] for k in IMAGE_KEYS], 1))
+        targets.append(batch["obs"]["object_in_tcp"][:, 0])
     return torch.cat(frames), torch.cat(targets)
 
 
@@ -63,14 +64,15 @@ class Probe(nn.Module):
     the policies' auxiliary head, or an MLP (2 x 256, ReLU: what a nonlinear reader such as
     the policy's LSTM and MLP could get from the same features)."""
 
-    def __init__(self, config, targets: torch.Tensor, head: str = "linear"):
+    def __init__(self, config: LearningConfig, targets: torch.Tensor, head: str = "linear"):
         super().__init__()
         self.encoders = nn.ModuleList(ImageEncoder.from_config(config) for _ in IMAGE_KEYS)
         width = config.feature_dim * len(IMAGE_KEYS)
         self.head = nn.Linear(width, targets.shape[1]) if head == "linear" else nn.Sequential(
             nn.Linear(width, 256), nn.ReLU(), nn.Linear(256, 256), nn.ReLU(),
             nn.Linear(256, targets.shape[1]))
-        self.normalizer = Normalizer(targets.mean(0).numpy(), targets.std(0).numpy() + 1e-6)
+        stats = compute_stats([targets.numpy()], OBS_MIN_STD)  # as training normalises it
+        self.normalizer = Normalizer(stats["mean"], stats["std"])
 
     def forward(self, frames: torch.Tensor) -> torch.Tensor:
         images = frames.float() / 255.0
@@ -91,8 +93,8 @@ def position_errors(probe: Probe, frames: torch.Tensor, targets: torch.Tensor,
     return 1000 * diff.norm(dim=-1).numpy()
 
 
-def run_variant(config, train: tuple, valid: tuple, steps: int, batch: int, seed: int,
-                lr: float, head: str) -> tuple[np.ndarray, np.ndarray, float]:
+def run_variant(config: LearningConfig, train: tuple, valid: tuple, steps: int, batch: int,
+                seed: int, lr: float, head: str) -> tuple[np.ndarray, np.ndarray, float]:
     """Trains one probe; its position errors (N, bodies) on the validation frames and on as
     many training frames (whether it generalises or overfits), and seconds per step."""
     torch.manual_seed(seed)

@@ -92,7 +92,7 @@ def test_training_seeds_and_foreign_results_are_refused(tmp_path, checkpoint):
 
 def test_training_scenes_run_only_as_a_labelled_diagnostic(tmp_path, checkpoint, monkeypatch):
     """``seen_scenes`` (``--seen-scenes``) runs the seeds the checkpoint trained on and says
-    which they were; other seeds are listed as unseen."""
+    which they were; a run on unseen seeds lists none."""
     monkeypatch.setattr(evaluation, "run_trial", _fake_trial)
     doc = evaluate(checkpoint, ["abstract"], ["lid"], 2, tmp_path, seed0=1, progress=False,
                    seen_scenes=True)
