@@ -7,12 +7,14 @@ import dataclasses
 import logging
 import math
 import shutil
+import signal
 import sys
+import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import NoReturn
 
-from legato_drake import __version__
+from legato_drake import __version__, conventions
 from legato_drake.errors import ConfigError, LegatoError, one_line
 from legato_drake.executor import BACKENDS
 from legato_drake.files import check_output_dir, check_output_file
@@ -228,6 +230,15 @@ def cmd_collect(args: argparse.Namespace) -> int:
     if args.camera_model not in CAMERA_MODELS:
         raise ConfigError(f"--camera-model must be one of {', '.join(CAMERA_MODELS)}, got "
                           f"{args.camera_model!r}")
+    for flag, value, ok, allowed in (
+            ("--noise-mm", args.noise_mm, args.noise_mm >= 0, "0 or more"),
+            ("--noise-deg", args.noise_deg, args.noise_deg >= 0, "0 or more"),
+            ("--noise-correlation", args.noise_correlation, 0 <= args.noise_correlation < 1,
+             "in [0, 1)"),
+            ("--noise-full-speed", args.noise_full_speed, args.noise_full_speed > 0,
+             "a positive speed, m/s")):
+        if not (math.isfinite(value) and ok):
+            raise ConfigError(f"{flag} must be {allowed}, got {value}")
     out = check_output_file(Path(args.out), "--out")
     check_output_dir(parts_dir(out), "--out")
     if args.max_attempts is not None and args.max_attempts < args.episodes:
@@ -244,7 +255,8 @@ def cmd_collect(args: argparse.Namespace) -> int:
                      camera=not args.no_camera, camera_model=args.camera_model,
                      duration=args.duration, max_attempts=args.max_attempts,
                      expert_noise=ExpertNoiseConfig(args.noise_mm / 1000.0, args.noise_deg,
-                                                    args.noise_correlation),
+                                                    args.noise_correlation,
+                                                    args.noise_full_speed),
                      stop_on_success=args.stop_on_success)
     for outcome in report.failed:
         log.info("failed: %s (seed %d): %s", outcome["key"], outcome["seed"],
@@ -606,6 +618,11 @@ def build_parser() -> argparse.ArgumentParser:
     collect.add_argument("--noise-correlation", type=float, default=0.8, metavar="RHO",
                          help="step-to-step correlation of the offset, in [0, 1) "
                               "(default 0.8)")
+    collect.add_argument("--noise-full-speed", type=float,
+                         default=conventions.EXPERT_NOISE_FULL_SPEED, metavar="M_PER_S",
+                         help="plan speed at and above which the offset has its full size; "
+                              "slower moves get less, holds none (default 0.15; lower "
+                              "perturbs the slow moves into a grasp or a placement too)")
     collect.add_argument("--stop-on-success", action="store_true",
                          help="end each episode at success (by default the release, hold "
                               "and retreat after it are recorded too)")
@@ -761,12 +778,20 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _terminated(signum: int, frame: object) -> NoReturn:
+    """SIGTERM (``kill``, a job scheduler) stops a command as Ctrl-C does: its ``finally``
+    blocks run, so worker processes are terminated with it rather than left training on."""
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``legato-drake`` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
                         format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminated) if main_thread else None
     try:
         try:
             code = args.func(args)
@@ -781,6 +806,9 @@ def main(argv: list[str] | None = None) -> int:
         if isinstance(e, OSError):  # not one of ours: its origin may matter (with -v)
             log.debug("the error's traceback:", exc_info=True)
         parser.exit(EXIT_BAD_INPUT, f"legato-drake: error: {one_line(e)}\n")
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

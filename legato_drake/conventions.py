@@ -35,6 +35,10 @@ HOMING_DURATION = 3.0
 """Length (s) of the cosine blend from the home posture to the start pose. Objects settle
 during it; the controller takes over at the end of it (episode time zero)."""
 
+EXPERT_NOISE_FULL_SPEED = 0.15
+"""Plan speed (m/s) at and above which a noisy scripted expert's offset has its full size
+(``ExpertNoiseConfig.full_speed``'s default)."""
+
 START_POSE = RigidTransform([0.1, -0.3, 0.8])
 """Pose of the gripper's TCP frame in the world when the controller takes over."""
 

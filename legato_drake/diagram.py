@@ -198,7 +198,7 @@ def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,
             "scripted_demonstrator", ScriptedDemonstrator(
                 plant, task, scenario.seed, script,
                 noise=ExpertNoise(noise.position_std, np.radians(noise.rotation_std_deg),
-                                  noise.correlation)))
+                                  noise.correlation, noise.full_speed)))
         builder.Connect(state, controller.get_plant_state_input_port())
     split = builder.AddNamedSystem("action_split", Demultiplexer([6, 1]))
     builder.Connect(controller.GetOutputPort("action"), split.get_input_port())

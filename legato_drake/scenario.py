@@ -10,7 +10,7 @@ Example ``scenario.yaml`` (every field is optional; the defaults are shown)::
     seed: 0
     duration: 40.0
     max_target_lead: 0.03    # policy only: bound on the commanded gripper's lead (metres)
-    expert_noise: {position_std: 0.0, rotation_std_deg: 0.0, correlation: 0.8}
+    expert_noise: {position_std: 0.0, rotation_std_deg: 0.0, correlation: 0.8, full_speed: 0.15}
     camera: {enabled: true, width: 128, height: 128, fov_y_deg: 120.0}
     recording: {meshcat: false, fps: 30.0}
 """
@@ -24,6 +24,7 @@ from pathlib import Path
 import yaml
 from pydrake.common.yaml import yaml_load, yaml_load_typed
 
+from legato_drake import conventions
 from legato_drake.data.pose_stream import check_pose_stream_file
 from legato_drake.errors import ConfigError, unknown_name, yaml_problem
 from legato_drake.files import read_text_file
@@ -77,7 +78,7 @@ class ExpertNoiseConfig:
     """DART-style perturbations of the scripted expert (for collecting demonstrations that
     teach recovery). The executed commanded pose is the plan's pose times a small random
     offset that drifts from step to step (an AR(1) process per axis, in the gripper frame,
-    scaled by the plan's speed: full at 0.15 m/s, none where the plan is still);
+    scaled by the plan's speed: full at ``full_speed``, none where the plan is still);
     the *label* the dataset records is the expert's correction from where it is back to its
     plan. Zero (the default) plays the plan exactly."""
 
@@ -88,6 +89,11 @@ class ExpertNoiseConfig:
     correlation: float = 0.8
     """Step-to-step correlation of the offset, in [0, 1): 0 is white noise, near 1 a slow
     drift (the offset's time constant is about 1 / (1 - correlation) policy steps)."""
+    full_speed: float = conventions.EXPERT_NOISE_FULL_SPEED
+    """Plan speed (m/s) at and above which the offset has its full size; slower, it shrinks
+    in proportion. At the default 0.15 the slow final moves into a grasp or a placement
+    (0.05-0.06 m/s, slowing to a stop) are hardly perturbed; lower, they are too, and the
+    demonstrations show corrections near the handle and above the pot."""
 
     @property
     def enabled(self) -> bool:
@@ -196,6 +202,9 @@ class Scenario:
         if not (math.isfinite(noise.correlation) and 0 <= noise.correlation < 1):
             raise ConfigError(f"expert_noise.correlation{place} must be in [0, 1), got "
                               f"{noise.correlation!r}")
+        if not (math.isfinite(noise.full_speed) and noise.full_speed > 0):
+            raise ConfigError(f"expert_noise.full_speed{place} must be a positive speed (m/s), "
+                              f"got {noise.full_speed!r}")
         if not (math.isfinite(self.recording.fps) and self.recording.fps > 0):
             raise ConfigError(f"recording.fps{place} must be a positive number, got "
                               f"{self.recording.fps}")

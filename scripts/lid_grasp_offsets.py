@@ -9,7 +9,12 @@ pot's horizontal frame (cm):
 
 * ``grasp``: the gripper's TCP minus the lid's centre when the policy first commands the
   fingers closed: where along the bar it took hold (the expert's grasps spread over
-  ``GRASP_ALONG_BAR`` either way);
+  ``GRASP_ALONG_BAR`` either way), and across it;
+* ``height``: the TCP's height above the lid's centre then (cm), and ``at``: the seconds
+  after homing when it did. A policy that closes on the bar does so at the bar's height
+  soon after its approach; one that came down beside the bar is stopped lower, with a finger
+  on the lid, and goes on pushing (the target held ``max_target_lead`` ahead) until it
+  closes late or never;
 * ``tcp at release``: the TCP's offset from the pot's axis when it first commands them open;
 * ``lid``: the lid centre's final offset from the axis (3 cm passes), and the verdict.
 
@@ -27,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from legato_drake import conventions
 from legato_drake.cli import seed_list
 from legato_drake.diagram import build_diagram
 from legato_drake.episode import EpisodeRun
@@ -42,21 +48,27 @@ def trace(checkpoint: Path, embodiment: str, seed: int, image: bool) -> dict:
     plant, task = built.plant, built.task
     run = EpisodeRun(built)
     grasp = release = None
+    height = at = None
     while not run.ended:
         run.advance_to(run.time + 0.1)
         context = plant.GetMyContextFromRoot(run.context)
         axis = task.pot_rim.CalcPoseInWorld(context).translation()[:2]
-        tcp = built.robot.tcp_frame.CalcPoseInWorld(context).translation()[:2]
-        lid = plant.EvalBodyPoseInWorld(context, task.lid).translation()[:2]
+        tcp_3d = built.robot.tcp_frame.CalcPoseInWorld(context).translation()
+        lid_3d = plant.EvalBodyPoseInWorld(context, task.lid).translation()
+        tcp, lid = tcp_3d[:2], lid_3d[:2]
         closed = built.controller.GetOutputPort("action").Eval(
             built.controller.GetMyContextFromRoot(run.context))[6] > 0.5
         if closed and grasp is None:
             grasp = (tcp - lid) * 100
+            height = (tcp_3d[2] - lid_3d[2]) * 100
+            at = run.time - conventions.HOMING_DURATION
         if not closed and grasp is not None and release is None:
             release = (tcp - axis) * 100
     result = run.result()
     return {"seed": seed, "success": result.success, "reason": result.reason,
             "grasp_cm": None if grasp is None else grasp.round(2).tolist(),
+            "grasp_height_cm": None if height is None else round(float(height), 2),
+            "grasp_time_s": None if at is None else round(float(at), 1),
             "tcp_at_release_cm": None if release is None else release.round(2).tolist(),
             "lid_cm": ((lid - axis) * 100).round(2).tolist()}
 
@@ -75,14 +87,18 @@ def main() -> None:
         sys.exit(f"error: {e}")
     image = ckpt.config.obs_mode == "image"
     rows = []
-    print(f"{'seed':>6}  {'grasp (cm)':>14}  {'tcp at release':>14}  {'lid (cm)':>14}  verdict")
+    print(f"{'seed':>6}  {'grasp (cm)':>14}  {'height':>6}  {'at (s)':>6}  {'tcp at release':>14}  "
+          f"{'lid (cm)':>14}  verdict")
     for seed in args.seeds:
         row = trace(args.checkpoint, args.embodiment, seed, image)
         rows.append(row)
         cells = [" ".join(f"{v:+5.1f}" for v in row[k]) if row[k] else "-"
                  for k in ("grasp_cm", "tcp_at_release_cm", "lid_cm")]
         verdict = "ok" if row["success"] else row["reason"]
-        print(f"{seed:>6}  {cells[0]:>14}  {cells[1]:>14}  {cells[2]:>14}  {verdict}")
+        height = "-" if row["grasp_height_cm"] is None else f"{row['grasp_height_cm']:+.1f}"
+        at = "-" if row["grasp_time_s"] is None else f"{row['grasp_time_s']:.1f}"
+        print(f"{seed:>6}  {cells[0]:>14}  {height:>6}  {at:>6}  {cells[1]:>14}  {cells[2]:>14}  "
+              f"{verdict}")
     offsets = [float(np.linalg.norm(r["lid_cm"])) for r in rows]
     print(f"{sum(r['success'] for r in rows)}/{len(rows)} succeeded; lid offset median "
           f"{np.median(offsets):.1f} cm, max {max(offsets):.1f} cm")

@@ -17,7 +17,7 @@ from legato_drake.data.layout import DatasetError, check_file, open_dataset, sor
 from legato_drake.data.synthetic import synthetic_episode
 from legato_drake.pipelines import collect as collect_module
 from legato_drake.pipelines.collect import collect, parts_dir, record_episode
-from legato_drake.scenario import Scenario
+from legato_drake.scenario import ExpertNoiseConfig, Scenario
 from legato_drake.tasks import TASKS
 
 
@@ -95,6 +95,26 @@ def test_keeps_the_first_successful_seeds_and_extends(tmp_path, monkeypatch):
         collect("lid", "abstract", 8, out, camera=False)
 
 
+def test_datasets_recorded_before_the_noise_full_speed_still_resume(tmp_path, monkeypatch):
+    """A manifest written before ``expert_noise.full_speed`` existed was collected at its
+    default: it is up to date for the default and refused for another speed."""
+    runner = FakeRunner()
+    monkeypatch.setattr(collect_module, "run_job", runner)
+    out = tmp_path / "d.hdf5"
+    noise = ExpertNoiseConfig(0.005, 2.0)
+    collect("lid", "abstract", 2, out, camera=False, expert_noise=noise)
+    manifest_file = out.with_name("d.hdf5.manifest.json")
+    manifest = json.loads(manifest_file.read_text())
+    assert manifest["config"]["expert_noise"].pop("full_speed") == 0.15
+    manifest_file.write_text(json.dumps(manifest))
+    runner.seeds.clear()
+    collect("lid", "abstract", 2, out, camera=False, expert_noise=noise)
+    assert runner.seeds == []  # up to date: nothing collected again
+    with pytest.raises(DatasetError, match="other settings.*expert_noise"):
+        collect("lid", "abstract", 3, out, camera=False,
+                expert_noise=ExpertNoiseConfig(0.005, 2.0, full_speed=0.03))
+
+
 def test_too_few_successes(tmp_path, monkeypatch):
     monkeypatch.setattr(collect_module, "run_job", FakeRunner())
     report = collect("lid", "abstract", 3, tmp_path / "d.hdf5", seed0=1, max_attempts=3,
@@ -129,6 +149,40 @@ def test_kill_and_resume(tmp_path):
     assert _seeds(out) == [0, 1, 2, 3]
     manifest = json.loads(out.with_name("d.hdf5.manifest.json").read_text())
     assert [o["seed"] for o in manifest["tried"]] == [0, 1, 2, 3]
+
+
+def _children(pid: int) -> list[int]:
+    path = Path(f"/proc/{pid}/task/{pid}/children")
+    return [int(c) for c in path.read_text().split()] if path.exists() else []
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="reads /proc (Linux)")
+def test_sigterm_ends_the_worker_processes_too(tmp_path):
+    """``kill`` of a command that runs workers stops them with it, as Ctrl-C does (they would
+    otherwise go on using the cores), and the parts recorded so far are kept to resume."""
+    out = tmp_path / "d.hdf5"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "legato_drake.cli", "collect", "--episodes", "6", "--workers",
+         "2", "--no-camera", "--duration", "30", "--out", str(out)],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120
+        while len(workers := _children(process.pid)) < 2 and time.monotonic() < deadline:
+            assert process.poll() is None, "collect ended before it could be stopped"
+            time.sleep(0.05)
+        assert len(workers) >= 2, "no worker processes started"
+        process.send_signal(signal.SIGTERM)  # the parent alone, not its process group
+        _, stderr = process.communicate(timeout=60)
+        assert process.returncode == 130 and "interrupted" in stderr
+        deadline = time.monotonic() + 30
+        while any(Path(f"/proc/{w}").exists() for w in workers) and \
+                time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not any(Path(f"/proc/{w}").exists() for w in workers), "workers left running"
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
 
 
 def test_cli_collect_with_cameras_and_inspect(tmp_path):

@@ -96,6 +96,8 @@ methods: [{name: a, config: legato_small_state.yaml}]
      "unknown field 'datasets[0].colour'"),
     ("datasets: [{task: soup}]\nmethods: [{name: a, config: legato_small_state.yaml}]",
      "datasets[0].task: unknown 'soup'; valid values: lid, cup, ladle"),
+    ("datasets: [{task: lid, noise_full_speed: 0}]\nmethods: [{name: a, config: "
+     "legato_small_state.yaml}]", "datasets[0].noise_full_speed must be a positive speed"),
     (GOOD + "training: {seeds: 0}", "training.seeds must be a list"),
     (GOOD + "training: {threads: two}", "training.threads must be an integer"),
     (GOOD + "training: {device: tpu}", "training.device: unknown 'tpu'; valid values: cpu"),
@@ -184,12 +186,28 @@ def test_dataset_keys_follow_the_experts_demo_version(tmp_path, monkeypatch):
     task = grid.evaluation.tasks[0]
     monkeypatch.setattr(TASKS[task], "demo_version", 1)
     first = dataset_path(grid, task, tmp_path)
-    assert first.name.endswith(unit_key("dataset", dataclasses.asdict(
-        grid.dataset_for(task)))[:10] + ".hdf5")
+    assert first.name.endswith(unit_key("dataset", grid.dataset_for(task).key_fields())[:10]
+                               + ".hdf5")
     runs = {r.key for r in plan_runs(grid, tmp_path)}
     monkeypatch.setattr(TASKS[task], "demo_version", 2)
     assert dataset_path(grid, task, tmp_path) != first
     assert not runs & {r.key for r in plan_runs(grid, tmp_path)}
+
+
+def test_dataset_keys_name_the_noise_full_speed_unless_default(tmp_path):
+    """``noise_full_speed`` at its default keeps the dataset keys of grids written before it
+    existed; another value is another dataset."""
+    grid = load_grid(_grid(tmp_path, GOOD))
+    task = grid.evaluation.tasks[0]
+    spec = grid.dataset_for(task)
+    before = {k: v for k, v in dataclasses.asdict(spec).items() if k != "noise_full_speed"}
+    first = dataset_path(grid, task, tmp_path)
+    version = TASKS[task].demo_version
+    assert first.name.endswith(unit_key("dataset", before, *([version] if version != 1
+                                                             else []))[:10] + ".hdf5")
+    spec.noise_full_speed = 0.03
+    assert dataset_path(grid, task, tmp_path) != first
+    assert spec.expert_noise().full_speed == 0.03
 
 
 def test_trial_keys_name_the_target_lead_bound_unless_unbounded(tmp_path):

@@ -159,3 +159,30 @@ def test_noisy_expert_removes_its_offset_when_done(panda_plant):
     Simulator(system, context).AdvanceTo(conventions.HOMING_DURATION + 60.0)
     np.testing.assert_array_equal(system.GetOutputPort("action").Eval(context)[:6], 0.0)
     np.testing.assert_array_equal(system.GetOutputPort("label").Eval(context)[:6], 0.0)
+
+
+def test_a_lower_full_speed_perturbs_the_slow_moves_too(panda_plant):
+    """``full_speed``: with the default the slow final move into the grasp is hardly
+    perturbed; at a lower full speed the same drift perturbs it fully, and the hold of the
+    grasp itself still never is."""
+    n = 110
+
+    def offsets(noise: ExpertNoise) -> tuple[np.ndarray, np.ndarray]:
+        system, context = _demonstrator(panda_plant, seed=3, noise=noise)
+        executed, _ = _both(system, context, n)
+        script = system.script(context)
+        X, out = conventions.START_POSE, []
+        for k in range(n):
+            X = apply_delta(X, executed[k, :6])
+            out.append(pose_error(X, script.pose(k))[0])
+        speed = np.linalg.norm(np.diff(script.poses[: n + 1, :3], axis=0), axis=1) / 0.1
+        speed = np.concatenate([[np.inf], speed[: n - 1]])  # the plan's speed into step k
+        return np.array(out), speed
+
+    default, speed = offsets(ExpertNoise(position_std=0.005))
+    low, _ = offsets(ExpertNoise(position_std=0.005, full_speed=0.02))
+    slow = (speed > 0.02) & (speed < 0.1)  # e.g. the final 0.06 m/s move into the grasp
+    assert slow.sum() >= 5
+    assert low[slow].mean() > 1.5 * default[slow].mean()
+    held = speed < 1e-9
+    assert held.sum() >= 5 and low[held].max() < 1e-9 and default[held].max() < 1e-9

@@ -27,13 +27,14 @@ from pathlib import Path
 
 import yaml
 
+from legato_drake import conventions
 from legato_drake.embodiments import EMBODIMENTS
 from legato_drake.errors import ConfigError, yaml_problem
 from legato_drake.files import read_text_file
 from legato_drake.learning.config import LearningConfig, load_config
 from legato_drake.pipelines.evaluate import EVAL_SEED0
 from legato_drake.pipelines.selection import SELECT_SEED0
-from legato_drake.scenario import DEFAULT_MAX_TARGET_LEAD
+from legato_drake.scenario import DEFAULT_MAX_TARGET_LEAD, ExpertNoiseConfig
 from legato_drake.tasks import TASKS
 
 CONFIGS_DIR = Path(__file__).resolve().parents[2] / "configs"
@@ -52,7 +53,24 @@ class DatasetSpec:
     noise_mm: float = 5.0
     """DART-style expert noise (position, millimetres); 0 for none."""
     noise_deg: float = 2.0
+    noise_full_speed: float = conventions.EXPERT_NOISE_FULL_SPEED
+    """The plan speed (m/s) at and above which the noise has its full size
+    (``ExpertNoiseConfig.full_speed``); lower perturbs the slow final moves too."""
     seed0: int = 0
+
+    def key_fields(self) -> dict:
+        """The fields that name the dataset in its unit key: all of them, but
+        ``noise_full_speed`` at its default (so that the datasets of grids written before it
+        existed keep their keys)."""
+        fields = dataclasses.asdict(self)
+        if self.noise_full_speed == conventions.EXPERT_NOISE_FULL_SPEED:
+            del fields["noise_full_speed"]
+        return fields
+
+    def expert_noise(self) -> ExpertNoiseConfig:
+        """The scripted expert's perturbation that collects this dataset."""
+        return ExpertNoiseConfig(self.noise_mm / 1000, self.noise_deg,
+                                 full_speed=self.noise_full_speed)
 
 
 @dataclass
@@ -189,6 +207,9 @@ def validate(grid: Grid) -> Grid:
         _at_least(f"datasets[{i}].episodes", d.episodes, 1)
         _at_least(f"datasets[{i}].noise_mm", d.noise_mm, 0)
         _at_least(f"datasets[{i}].noise_deg", d.noise_deg, 0)
+        if not d.noise_full_speed > 0:
+            raise ConfigError(f"datasets[{i}].noise_full_speed must be a positive speed (m/s), "
+                              f"got {d.noise_full_speed!r}")
         _at_least(f"datasets[{i}].seed0", d.seed0, 0)
     tasks = [d.task for d in grid.datasets]
     for task in set(tasks):

@@ -57,7 +57,6 @@ from legato_drake.pipelines.collect import collect
 from legato_drake.pipelines.evaluate import TrialJob, trial_order, trial_scenario
 from legato_drake.pipelines.selection import candidates, write_selection
 from legato_drake.progress import progress_bar
-from legato_drake.scenario import ExpertNoiseConfig
 from legato_drake.tasks import TASKS
 
 log = logging.getLogger(__name__)
@@ -146,7 +145,7 @@ def dataset_path(grid: Grid, task: str, out: Path) -> Path:
     their keys)."""
     spec = grid.dataset_for(task)
     version = TASKS[task].demo_version
-    key = unit_key("dataset", dataclasses.asdict(spec), *([version] if version != 1 else []))
+    key = unit_key("dataset", spec.key_fields(), *([version] if version != 1 else []))
     return out / "datasets" / f"{task}-{spec.embodiment}-{key[:10]}.hdf5"
 
 
@@ -431,7 +430,7 @@ def run_experiment(grid: Grid, out: str | Path, executor: Executor,
             collected += 1
         collect(spec.task, spec.embodiment, spec.episodes, path, seed0=spec.seed0,
                 camera=spec.cameras, progress=progress, executor=executor,
-                expert_noise=ExpertNoiseConfig(spec.noise_mm / 1000, spec.noise_deg))
+                expert_noise=spec.expert_noise())
     runs = plan_runs(grid, out)
     # absolute: a Ray worker on this machine runs in a folder of its own
     scratch = (out / "runs" / ".training").resolve() if executor.shares_files else None

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import h5py
 
+from legato_drake import conventions
 from legato_drake.data.layout import DatasetError, open_dataset, read_json_attr, sorted_demos
 from legato_drake.data.pose_stream import find_pose_streams, load_pose_stream
 from legato_drake.data.writer import Episode, env_args_for, merge_demos, write_dataset
@@ -47,11 +48,16 @@ CONFIG_KEYS = ("task", "embodiment", "camera", "camera_model", "duration", "sour
 """Collect settings that change what an episode is: a resumed collection must match them."""
 CONFIG_DEFAULTS = {"camera_model": "pinhole", "demo_version": 1}
 """What a setting was before collections recorded it (datasets written by older versions)."""
+NOISE_DEFAULTS = {"full_speed": conventions.EXPERT_NOISE_FULL_SPEED}
+"""The same for the fields of ``expert_noise``."""
 
 
 def _setting(config: dict, key: str) -> object:
     """A collect setting of ``config`` (a recorded one: its default where it predates it)."""
-    return config.get(key, CONFIG_DEFAULTS.get(key))
+    value = config.get(key, CONFIG_DEFAULTS.get(key))
+    if key == "expert_noise" and isinstance(value, dict):
+        return {**NOISE_DEFAULTS, **value}
+    return value
 
 
 def _changed(old: dict, config: dict, keys: tuple[str, ...] = CONFIG_KEYS) -> list[str]:

@@ -85,12 +85,14 @@ class ExpertNoise:
     """Per-axis standard deviation (rad) of the offset's rotation vector."""
     correlation: float = 0.8
     """Step-to-step correlation of the AR(1) offset."""
-    full_speed: float = 0.15
+    full_speed: float = conventions.EXPERT_NOISE_FULL_SPEED
     """Plan speed (m/s) at and above which the offset has its full size; slower, it shrinks
-    in proportion, and it vanishes where the plan holds still. So transit is perturbed and
-    the precise, slow moves into a grasp or a release are not: there the grasp decision
-    depends on arriving, and an offset as large as the last steps would blur it (we measured
-    policies that hover at the handle and never close)."""
+    in proportion, and it vanishes where the plan holds still. At the default, transit is
+    perturbed and the precise, slow moves into a grasp or a release hardly are: there the
+    grasp decision depends on arriving, and an offset as large as the last steps would blur
+    it (we measured state policies that hover at the handle and never close). Lower, those
+    moves are perturbed too (the hold of the grasp itself never is): demonstrations of
+    corrections where an image policy arrives a centimetre off."""
 
     @property
     def enabled(self) -> bool:
