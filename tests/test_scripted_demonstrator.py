@@ -175,7 +175,8 @@ def test_a_lower_full_speed_perturbs_the_slow_moves_too(panda_plant):
         for k in range(n):
             X = apply_delta(X, executed[k, :6])
             out.append(pose_error(X, script.pose(k))[0])
-        speed = np.linalg.norm(np.diff(script.poses[: n + 1, :3], axis=0), axis=1) / 0.1
+        speed = np.linalg.norm(np.diff(script.poses[: n + 1, :3], axis=0), axis=1) \
+            / conventions.POLICY_PERIOD
         speed = np.concatenate([[np.inf], speed[: n - 1]])  # the plan's speed into step k
         return np.array(out), speed
 
