@@ -47,30 +47,27 @@ def trace(checkpoint: Path, embodiment: str, seed: int, image: bool) -> dict:
                                          duration=None).validate())
     plant, task = built.plant, built.task
     run = EpisodeRun(built)
-    grasp = release = None
-    height = at = None
+    grasp = release = at = None
     while not run.ended:
         run.advance_to(run.time + 0.1)
         context = plant.GetMyContextFromRoot(run.context)
         axis = task.pot_rim.CalcPoseInWorld(context).translation()[:2]
-        tcp_3d = built.robot.tcp_frame.CalcPoseInWorld(context).translation()
-        lid_3d = plant.EvalBodyPoseInWorld(context, task.lid).translation()
-        tcp, lid = tcp_3d[:2], lid_3d[:2]
+        tcp = built.robot.tcp_frame.CalcPoseInWorld(context).translation()
+        lid = plant.EvalBodyPoseInWorld(context, task.lid).translation()
         closed = built.controller.GetOutputPort("action").Eval(
             built.controller.GetMyContextFromRoot(run.context))[6] > 0.5
         if closed and grasp is None:
-            grasp = (tcp - lid) * 100
-            height = (tcp_3d[2] - lid_3d[2]) * 100
+            grasp = (tcp - lid) * 100  # x, y and the height above the lid's centre
             at = run.time - conventions.HOMING_DURATION
         if not closed and grasp is not None and release is None:
-            release = (tcp - axis) * 100
+            release = (tcp[:2] - axis) * 100
     result = run.result()
     return {"seed": seed, "success": result.success, "reason": result.reason,
-            "grasp_cm": None if grasp is None else grasp.round(2).tolist(),
-            "grasp_height_cm": None if height is None else round(float(height), 2),
+            "grasp_cm": None if grasp is None else grasp[:2].round(2).tolist(),
+            "grasp_height_cm": None if grasp is None else round(float(grasp[2]), 2),
             "grasp_time_s": None if at is None else round(float(at), 1),
             "tcp_at_release_cm": None if release is None else release.round(2).tolist(),
-            "lid_cm": ((lid - axis) * 100).round(2).tolist()}
+            "lid_cm": ((lid[:2] - axis) * 100).round(2).tolist()}
 
 
 def main() -> None:
