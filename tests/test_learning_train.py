@@ -182,3 +182,19 @@ def test_cli_train_with_an_override(tmp_path, data):
     with pytest.raises(SystemExit):
         main(["train", "--config", str(cfg), "--data", str(tmp_path / "no.hdf5"), "--out",
               str(tmp_path / "run2")])
+
+
+def test_a_bfloat16_image_trunk_warns_on_a_cpu_without_native_bfloat16(tmp_path, data,
+                                                                         monkeypatch, caplog):
+    config = tiny_config(obs_mode="image", steps=1, encoder_precision="bfloat16")
+    monkeypatch.setattr("legato_drake.learning.train.native_bfloat16", lambda: False)
+    with caplog.at_level("WARNING", logger="legato_drake.learning.train"):
+        train(config, data, tmp_path / "run", progress=False)
+    assert "no native bfloat16" in caplog.text and "encoder_precision=float32" in caplog.text
+    caplog.clear()
+    monkeypatch.setattr("legato_drake.learning.train.native_bfloat16", lambda: True)
+    with caplog.at_level("WARNING", logger="legato_drake.learning.train"):
+        train(config, data, tmp_path / "run2", progress=False)
+    assert "bfloat16" not in caplog.text
+    starts = json.loads((tmp_path / "run2" / "machine.json").read_text())
+    assert "native_bfloat16" in starts[0]

@@ -23,7 +23,6 @@ the same losses).
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import dataclasses
 import io
@@ -48,6 +47,7 @@ from legato_drake.files import atomic_write_text
 from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from legato_drake.learning.config import LearningConfig, config_from_dict, save_config
 from legato_drake.learning.family import PolicyFamily
+from legato_drake.learning.hardware import cpu_model, native_bfloat16
 from legato_drake.learning.normalization import OBS_MIN_STD, compute_stats
 from legato_drake.learning.registry import build_policy, check_algo, extra_stats
 from legato_drake.progress import progress_bar
@@ -157,15 +157,10 @@ def log_columns(policy: PolicyFamily) -> tuple[str, ...]:
 
 def _record_machine(path: Path, step: int, device: str) -> None:
     """Appends where this (re)start of the run trains to ``machine.json``."""
-    model = platform.processor()
-    with contextlib.suppress(OSError):
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
     entries = json.loads(path.read_text()) if path.is_file() else []
-    entries.append({"step": step, "cpu": model, "machine": platform.machine(),
+    entries.append({"step": step, "cpu": cpu_model(), "machine": platform.machine(),
                     "cpu_capability": torch.backends.cpu.get_cpu_capability(),
+                    "native_bfloat16": native_bfloat16(),
                     "threads": torch.get_num_threads(), "device": str(device),
                     "python": platform.python_version(), "torch": torch.__version__,
                     "numpy": np.__version__})
@@ -250,6 +245,11 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
     train_seeds = check_data(data, config)
     if device == "cpu" and config.cpu_threads > 0:
         torch.set_num_threads(config.cpu_threads)
+    if device == "cpu" and config.obs_mode == "image" \
+            and config.encoder_precision == "bfloat16" and native_bfloat16() is False:
+        log.warning("encoder_precision bfloat16: this CPU (%s) has no native bfloat16, so "
+                       "the image trunk trains several times slower than in float32 here; "
+                       "--set encoder_precision=float32 is faster", cpu_model())
     seed_everything(config.seed)
     dataset = DemoSequenceDataset(data, config.dataset_keys, config.seq_length, "train",
                                   cache_images=config.cache_images)
