@@ -119,10 +119,11 @@ def main() -> None:
             records.append(dict(config=name, image_resize=resize, image_crop=crop,
                                 encoder_precision=precision, ms_per_step=1e3 * seconds,
                                 images_per_s=images))
-    native = {True: "yes", False: "no", None: "unknown"}[native_bfloat16()]
+    native, cpu = native_bfloat16(), cpu_model()
+    said = "unknown" if native is None else "yes" if native else "no"
     print(f"batch {BATCH} x {SEQUENCE} steps, {args.device}, torch {torch.__version__}, "
-          f"{args.threads} thread(s), median of {args.steps} steps; {cpu_model()}, "
-          f"native bfloat16: {native}")
+          f"{args.threads} thread(s), median of {args.steps} steps; {cpu}, native bfloat16: "
+          f"{said}")
     print(format_table(["config", "ms/step without L_invar", "ms/step with L_invar",
                         "L_invar adds %"], rows))
     if levers:
@@ -131,7 +132,7 @@ def main() -> None:
                             "speed-up"], levers))
     if args.json is not None:
         args.json.write_text(json.dumps(dict(threads=args.threads, device=args.device,
-                                             cpu=cpu_model(), native_bfloat16=native_bfloat16(),
+                                             cpu=cpu, native_bfloat16=native,
                                              rows=records), indent=1))
 
 

@@ -10,6 +10,7 @@ step of ``configs/legato_small_image.yaml``, ``benchmarks/bench_training_step.py
 from __future__ import annotations
 
 import contextlib
+import functools
 import platform
 from pathlib import Path
 
@@ -18,7 +19,9 @@ BFLOAT16_FLAGS = frozenset({"avx512_bf16", "amx_bf16", "bf16"})
 """cpuinfo flags of native bfloat16 arithmetic: x86's AVX-512 BF16 and AMX, Arm's BF16."""
 
 
+@functools.cache
 def _cpuinfo() -> str:
+    """This machine's cpuinfo text, read once per process ("" where there is none)."""
     with contextlib.suppress(OSError):
         return CPUINFO.read_text()
     return ""

@@ -248,8 +248,8 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
     if device == "cpu" and config.obs_mode == "image" \
             and config.encoder_precision == "bfloat16" and native_bfloat16() is False:
         log.warning("encoder_precision bfloat16: this CPU (%s) has no native bfloat16, so "
-                       "the image trunk trains several times slower than in float32 here; "
-                       "--set encoder_precision=float32 is faster", cpu_model())
+                    "the image trunk trains several times slower than in float32 here; "
+                    "--set encoder_precision=float32 is faster", cpu_model())
     seed_everything(config.seed)
     dataset = DemoSequenceDataset(data, config.dataset_keys, config.seq_length, "train",
                                   cache_images=config.cache_images)
