@@ -720,7 +720,8 @@ def build_parser() -> argparse.ArgumentParser:
                           help="only combine these results files into one plot and table")
     evaluate.add_argument("--set", action="append", metavar="FIELD=VALUE",
                           help="how the policy acts (repeatable): action_horizon (steps "
-                               "executed per chunk) or inference_steps (DDIM steps), e.g. "
+                               "executed per chunk), inference_steps (DDIM steps) or "
+                               "rnn_memory (reset or window: how an LSTM remembers), e.g. "
                                "inference_steps=3; the trials run a copy of the checkpoint")
     evaluate.add_argument("--seen-scenes", action="store_true",
                           help="allow scene seeds the checkpoint was trained or selected on "

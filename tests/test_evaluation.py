@@ -142,7 +142,15 @@ def test_rollout_settings_change_a_copy_and_are_not_mixed_in(tmp_path, checkpoin
     monkeypatch.setattr(evaluation, "run_trial", trial)
     doc = evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False,
                    overrides=["inference_steps=3", "action_horizon=2"])
-    assert seen == [3] and doc["rollout"] == {"action_horizon": 2, "inference_steps": 3}
+    assert seen == [3] and doc["rollout"] == {"action_horizon": 2, "inference_steps": 3,
+                                              "rnn_memory": "reset"}
+    # A results file written before rnn_memory existed resumes: the missing field is its
+    # default.
+    older = json.loads((tmp_path / "tiny.json").read_text())
+    del older["rollout"]["rnn_memory"]
+    (tmp_path / "tiny.json").write_text(json.dumps(older))
+    evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False,
+             overrides=["inference_steps=3", "action_horizon=2"])
     frozen, trained = load_checkpoint(tmp_path / "tiny.pt"), load_checkpoint(checkpoint)
     assert frozen.config.action_horizon == 2 and trained.config.inference_steps != 3
     for name, tensor in trained.policy.state_dict().items():
@@ -150,7 +158,7 @@ def test_rollout_settings_change_a_copy_and_are_not_mixed_in(tmp_path, checkpoin
     with pytest.raises(ConfigError, match="--set"):
         evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False,
                  overrides=["inference_steps=5", "action_horizon=2"])
-    with pytest.raises(ConfigError, match="'lr=0.1'.*action_horizon, inference_steps"):
+    with pytest.raises(ConfigError, match="'lr=0.1'.*action_horizon, inference_steps, rnn_memory"):
         evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path / "other", progress=False,
                  overrides=["lr=0.1"])
     assert not (tmp_path / "other").exists()

@@ -330,3 +330,35 @@ def test_history_noise_and_dropout_act_in_training_only():
     assert not torch.allclose(policy.features(obs), policy.features(obs))
     clean = RecurrentGMMPolicy(tiny_config(history=2, invariant_weight=0.0), _stats()).train()
     torch.testing.assert_close(clean.features(obs), clean.features(obs))
+
+
+def test_window_memory_acts_on_the_last_seq_length_frames_and_reset_memory_restarts():
+    """``rnn_memory``: ``reset`` restarts the LSTM every ``seq_length`` steps; ``window``
+    reruns it from a zero state over the last ``seq_length`` frames. The two agree until the
+    first reset and differ after it."""
+    L, steps = 4, 11
+    torch.manual_seed(0)
+    reset = RecurrentGMMPolicy(tiny_config(seq_length=L), _stats()).eval()
+    window = RecurrentGMMPolicy(tiny_config(seq_length=L, rnn_memory="window"), _stats()).eval()
+    window.load_state_dict(reset.state_dict())
+    frames = [{k: v[:1, t] for k, v in _batch()["obs"].items()} for t in range(T)] * 3
+    state_r, state_w, acted_r, acted_w = reset.initial_state(), window.initial_state(), [], []
+    for t in range(steps):
+        action, state_r = reset.act(frames[t], state_r)
+        acted_r.append(action[0, 0])
+        action, state_w = window.act(frames[t], state_w)
+        acted_w.append(action[0, 0])
+        assert len(state_w.window) == min(t + 1, L - 1)
+
+    def from_zero(first: int, last: int) -> torch.Tensor:
+        """The action at ``last`` of the LSTM run from a zero state over frames first..last."""
+        run = {k: torch.stack([frames[t][k] for t in range(first, last + 1)], 1)
+               for k in frames[0]}
+        with torch.no_grad():
+            return reset.mode_action(reset(run)[0])[0, -1]
+
+    for t in range(steps):
+        torch.testing.assert_close(acted_w[t], from_zero(max(0, t - L + 1), t))
+        torch.testing.assert_close(acted_r[t], from_zero(t - t % L, t))
+    torch.testing.assert_close(torch.stack(acted_w[:L]), torch.stack(acted_r[:L]))
+    assert not torch.allclose(torch.stack(acted_w[L:]), torch.stack(acted_r[L:]))

@@ -26,6 +26,8 @@ CHUNK_TARGETS = ("planned", "actions")
 """``chunk_targets``' values."""
 LR_SCHEDULES = ("constant", "cosine")
 """``lr_schedule``'s values."""
+RNN_MEMORIES = ("reset", "window")
+"""``rnn_memory``'s values."""
 STATE_KEYS = ("tcp_commanded", "tcp_measured", "object", "object_in_tcp", "fingers")
 """Privileged observations a ``state`` policy may use: what the EpisodeRecorder records and
 what ``data.derived`` computes from it."""
@@ -92,8 +94,13 @@ class LearningConfig:
     min_std: float = 1e-4
     """Added to the softplus of the GMM scales."""
     seq_length: int = 20
-    """Training sequence length; the RNN state is reset every ``seq_length`` steps at
-    rollout too."""
+    """Training sequence length: what the LSTM is trained to remember (``rnn_memory``)."""
+    rnn_memory: str = "reset"
+    """How a recurrent policy remembers at rollout. ``reset``: the LSTM state starts afresh
+    every ``seq_length`` steps (robomimic's), so right after each reset the policy acts on
+    one frame; ``window``: every step reruns the LSTM from a zero state over the last
+    ``seq_length`` frames' features (each frame encoded once), so it always acts on
+    ``seq_length - 1`` steps of context, as the last step of a training sequence does."""
     batch_size: int = 16
     lr: float = 1e-4
     lr_schedule: str = "constant"
@@ -218,6 +225,9 @@ class LearningConfig:
         if self.inference_steps > self.diffusion_steps:
             raise bad("inference_steps", f"must be at most diffusion_steps "
                                          f"({self.diffusion_steps}), got {self.inference_steps}")
+        if self.rnn_memory not in RNN_MEMORIES:
+            raise bad("rnn_memory", f"must be one of {', '.join(RNN_MEMORIES)}, got "
+                                    f"{self.rnn_memory!r}")
         if self.lr_schedule not in LR_SCHEDULES:
             raise bad("lr_schedule", f"must be one of {', '.join(LR_SCHEDULES)}, got "
                                      f"{self.lr_schedule!r}")
@@ -275,12 +285,13 @@ NEUTRAL_VALUES = {
     "image_resize": lambda fields: fields["image_resize"] == 0,
     "object_aux_weight": lambda fields: fields["object_aux_weight"] == 0,
     "lr_schedule": lambda fields: fields["lr_schedule"] == "constant",
+    "rnn_memory": lambda fields: fields["rnn_memory"] == "reset",
 }
 """Fields added after experiments had keyed their results on whole configs, each with a test
 for the values at which it does what the code did before it existed (L_invar's turn
 resolution was its motion resolution; every noise level weighed alike; images kept at 128 x
-128; no auxiliary object loss; a constant learning rate). At those values ``key_fields``
-leaves the field out, so those results keep their keys."""
+128; no auxiliary object loss; a constant learning rate; the LSTM reset at rollout). At those
+values ``key_fields`` leaves the field out, so those results keep their keys."""
 
 
 def key_fields(config: LearningConfig | dict) -> dict:
@@ -292,10 +303,11 @@ def key_fields(config: LearningConfig | dict) -> dict:
             if not (k in NEUTRAL_VALUES and NEUTRAL_VALUES[k](fields))}
 
 
-ROLLOUT_FIELDS = ("action_horizon", "inference_steps")
+ROLLOUT_FIELDS = ("action_horizon", "inference_steps", "rnn_memory")
 """Fields that change how a trained network acts, never how it is trained (a Diffusion
-Policy's executed steps per chunk and DDIM steps): an experiment trains once for configs
-that differ only in these, and writes each one's values into its copies of the checkpoints."""
+Policy's executed steps per chunk and DDIM steps, a recurrent policy's memory): an experiment
+trains once for configs that differ only in these, and writes each one's values into its
+copies of the checkpoints."""
 
 
 _FIELDS = {f.name: f for f in dataclasses.fields(LearningConfig)}

@@ -81,13 +81,16 @@ class RecurrentState:
     steps: int
     """Actions taken since the episode began."""
     hidden: tuple[np.ndarray, np.ndarray] | None
-    """The LSTM state (h, c); None at the start."""
+    """The LSTM state (h, c); None at the start (``rnn_memory: reset``)."""
+    window: tuple[np.ndarray, ...] = ()
+    """The LSTM's input features (B, F) of the last ``seq_length - 1`` frames, oldest first
+    (``rnn_memory: window``)."""
 
 
 class RecurrentGMMPolicy(PolicyFamily):
     """LEGATO (``algo: legato``) or BC-RNN (``algo: bc_rnn``); see the module docstring.
-    One action per ``act``; the LSTM state is reset every ``seq_length`` steps (the training
-    horizon)."""
+    One action per ``act``; the LSTM remembers at most ``seq_length`` steps (the training
+    horizon), as ``rnn_memory`` says."""
 
     loss_terms = ("nll", "ce", "invar", "total")
 
@@ -243,11 +246,18 @@ class RecurrentGMMPolicy(PolicyFamily):
     def act(self, obs: Mapping[str, torch.Tensor], state: RecurrentState
             ) -> tuple[torch.Tensor, RecurrentState]:
         """One rollout step: raw observations (B, ...) without a time axis -> the low-noise
-        action (B, 1, 7) and the next state (the LSTM state starts afresh every
-        ``seq_length`` steps)."""
+        action (B, 1, 7) and the next state: the LSTM state, started afresh every
+        ``seq_length`` steps (``rnn_memory: reset``), or the last frames' features, over which
+        the LSTM runs from a zero state (``window``)."""
+        features = self.features({k: v[:, None] for k, v in obs.items()})
+        if self.config.rnn_memory == "window":
+            frames = (*state.window, features[:, 0].numpy().copy())
+            out, _ = self._heads(torch.from_numpy(np.stack(frames, 1)))
+            keep = frames[max(0, len(frames) - (self.config.seq_length - 1)):]
+            return self.mode_action(out)[:, -1:], RecurrentState(state.steps + 1, None, keep)
         hidden = None
         if state.hidden is not None and state.steps % self.config.seq_length != 0:
             hidden = tuple(torch.from_numpy(h) for h in state.hidden)
-        out, hidden = self({k: v[:, None] for k, v in obs.items()}, hidden)
+        out, hidden = self._heads(features, hidden)
         return self.mode_action(out), RecurrentState(
             state.steps + 1, tuple(h.numpy().copy() for h in hidden))

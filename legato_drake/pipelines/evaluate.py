@@ -37,7 +37,11 @@ from legato_drake.episode import run_episode
 from legato_drake.errors import ConfigError
 from legato_drake.executor import Executor, make_executor
 from legato_drake.files import atomic_write_bytes, atomic_write_csv, atomic_write_text
-from legato_drake.learning.config import ROLLOUT_FIELDS, apply_rollout_overrides
+from legato_drake.learning.config import (
+    ROLLOUT_FIELDS,
+    LearningConfig,
+    apply_rollout_overrides,
+)
 from legato_drake.progress import progress_bar
 from legato_drake.scenario import DEFAULT_MAX_TARGET_LEAD, Scenario
 from legato_drake.summary import Rate, group_by
@@ -178,6 +182,10 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
            "seen_scenes": sorted(overlap), "trials": []}
     if path.is_file() and not overwrite:
         old = {"max_target_lead": 0.0, **load_results(path)}  # older files: unbounded
+        if "rollout" in old:  # older files lack the rollout fields added since: defaults
+            defaults = LearningConfig()
+            old["rollout"] = {**{n: getattr(defaults, n) for n in ROLLOUT_FIELDS},
+                              **old["rollout"]}
         for key, what in (("checkpoint", "checkpoint"), ("checkpoint_sha256", "checkpoint"),
                           ("duration", "--duration"), ("seed0", "--seed0"),
                           ("rollout", "--set"), ("max_target_lead", "--max-target-lead")):

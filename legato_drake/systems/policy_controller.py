@@ -52,7 +52,8 @@ class PolicyController(LeafSystem):
     controller executes the first ``execute_steps`` of the chunk, one per step, then asks
     again (receding horizon). For the recurrent policies
     the chunk is one action (the low-noise GMM mode) and the state is the LSTM's, reset every
-    ``seq_length`` steps (the training horizon).
+    ``seq_length`` steps (the training horizon), or the last ``seq_length`` frames' features
+    (``rnn_memory: window``).
 
     Input ports (by the policy's observation mode):
         image: left_gray, right_gray (numpy uint8 H x W x 1).
