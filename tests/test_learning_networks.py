@@ -341,7 +341,8 @@ def test_window_memory_acts_on_the_last_seq_length_frames_and_reset_memory_resta
     reset = RecurrentGMMPolicy(tiny_config(seq_length=L), _stats()).eval()
     window = RecurrentGMMPolicy(tiny_config(seq_length=L, rnn_memory="window"), _stats()).eval()
     window.load_state_dict(reset.state_dict())
-    frames = [{k: v[:1, t] for k, v in _batch()["obs"].items()} for t in range(T)] * 3
+    obs = _batch()["obs"]
+    frames = [{k: v[:1, t] for k, v in obs.items()} for t in range(T)] * 3
     state_r, state_w, acted_r, acted_w = reset.initial_state(), window.initial_state(), [], []
     for t in range(steps):
         action, state_r = reset.act(frames[t], state_r)
