@@ -363,3 +363,38 @@ def test_window_memory_acts_on_the_last_seq_length_frames_and_reset_memory_resta
         torch.testing.assert_close(acted_r[t], from_zero(t - t % L, t))
     torch.testing.assert_close(torch.stack(acted_w[:L]), torch.stack(acted_r[:L]))
     assert not torch.allclose(torch.stack(acted_w[L:]), torch.stack(acted_r[L:]))
+
+
+def test_the_weight_average_follows_the_trained_weights_and_is_what_validates_and_acts():
+    """``ema``: the trained parameters are those of a policy without it (same values, same
+    order); ``after_step`` moves the frozen copy ``1 - decay`` of the way to them; validation
+    and rollout run the copy."""
+    torch.manual_seed(0)
+    plain = RecurrentGMMPolicy(tiny_config(), _stats())
+    torch.manual_seed(0)
+    averaged = RecurrentGMMPolicy(tiny_config(ema=True, ema_decay=0.9), _stats())
+    trained = [p for p in averaged.parameters() if p.requires_grad]
+    assert len(trained) == len(list(plain.parameters()))
+    for mine, theirs in zip(trained, plain.parameters(), strict=True):
+        assert torch.equal(mine, theirs)
+    batch = _batch()
+    before = [p.clone() for p in averaged.ema.parameters()]
+    averaged.losses(batch)["total"].backward()
+    torch.optim.SGD(trained, lr=0.5).step()
+    averaged.after_step(1000)  # decay min(0.9, 1001 / 1010) = 0.9
+    for mean, old, new in zip(averaged.ema.parameters(), before, trained, strict=True):
+        torch.testing.assert_close(mean, 0.9 * old + 0.1 * new.detach())
+    averaged.eval()
+    as_average = RecurrentGMMPolicy(tiny_config(), _stats()).eval()
+    as_average.load_state_dict(averaged.ema.state_dict())
+    as_trained = RecurrentGMMPolicy(tiny_config(), _stats()).eval()
+    as_trained.load_state_dict({k: v for k, v in averaged.state_dict().items()
+                                if not k.startswith("ema.")})
+    with torch.no_grad():
+        loss = averaged.losses(batch)["total"]
+        torch.testing.assert_close(loss, as_average.losses(batch)["total"])
+        assert not torch.allclose(loss, as_trained.losses(batch)["total"])
+    obs = {k: v[:, 0] for k, v in batch["obs"].items()}
+    action, _ = averaged.act(obs, averaged.initial_state())
+    torch.testing.assert_close(action, as_average.act(obs, as_average.initial_state())[0])
+    assert not torch.allclose(action, as_trained.act(obs, as_trained.initial_state())[0])

@@ -171,6 +171,29 @@ def test_resume_continues_the_step_count_with_the_same_losses(tmp_path, data):
     assert starts[0]["torch"] == torch.__version__ and starts[0]["cpu_capability"]
 
 
+def _column(run: Path, name: str) -> list[float]:
+    with open(run / "log.csv", newline="") as f:
+        return [float(row[name]) for row in csv.DictReader(f) if row[name]]
+
+
+def test_a_weight_average_leaves_the_training_alone_and_survives_a_resume(tmp_path, data):
+    """``ema``: the trained weights take the steps they take without it (the same losses,
+    bit for bit), validation reads the average, and a resumed run's average is an
+    uninterrupted one's."""
+    train(tiny_config(), data, tmp_path / "plain", progress=False)
+    config = tiny_config(ema=True, ema_decay=0.9)
+    full = train(config, data, tmp_path / "full", progress=False)
+    assert _losses(tmp_path / "full") == _losses(tmp_path / "plain")
+    assert _column(tmp_path / "full", "valid_total") != _column(tmp_path / "plain", "valid_total")
+    train(config, data, tmp_path / "split", steps=10, progress=False)
+    resumed = train(config, data, tmp_path / "split", resume=True, progress=False)
+    for mine, theirs in zip(resumed.policy.ema.parameters(), full.policy.ema.parameters(),
+                            strict=True):
+        torch.testing.assert_close(mine, theirs)
+    loaded = load_checkpoint(tmp_path / "full" / "last.pt")
+    torch.testing.assert_close(loaded.policy.ema.rnn.weight_hh_l0, full.policy.ema.rnn.weight_hh_l0)
+
+
 def test_cli_train_with_an_override(tmp_path, data):
     cfg = tmp_path / "c.yaml"
     save_config(tiny_config(algo="bc_rnn", invariant_weight=0.0), cfg)

@@ -157,9 +157,14 @@ class LearningConfig:
     """Diffusion Policy: DDPM noise levels in training (squared-cosine schedule)."""
     inference_steps: int = 10
     """Diffusion Policy: DDIM denoising steps per decision at rollout."""
+    ema: bool = False
+    """LEGATO and BC-RNN: also keep an exponential moving average of the weights (decay
+    ``ema_decay``) and validate, select and roll out the average; the trained weights stay in
+    the checkpoints beside it. Diffusion Policy always averages."""
     ema_decay: float = 0.999
-    """Diffusion Policy: the most a step keeps of the weights' moving average (warmed up as
-    ``(1 + step) / (10 + step)``); rollout and validation use the average."""
+    """The most a step keeps of the weights' moving average (warmed up as
+    ``(1 + step) / (10 + step)``); rollout and validation use the average. Diffusion Policy
+    always averages, the recurrent families with ``ema``."""
     valid_every: int = 200
     """Steps between validation losses (and ``best.pt`` updates)."""
     valid_batches: int = 8
@@ -286,11 +291,13 @@ NEUTRAL_VALUES = {
     "object_aux_weight": lambda fields: fields["object_aux_weight"] == 0,
     "lr_schedule": lambda fields: fields["lr_schedule"] == "constant",
     "rnn_memory": lambda fields: fields["rnn_memory"] == "reset",
+    "ema": lambda fields: not fields["ema"],
 }
 """Fields added after experiments had keyed their results on whole configs, each with a test
 for the values at which it does what the code did before it existed (L_invar's turn
 resolution was its motion resolution; every noise level weighed alike; images kept at 128 x
-128; no auxiliary object loss; a constant learning rate; the LSTM reset at rollout). At those
+128; no auxiliary object loss; a constant learning rate; the LSTM reset at rollout; no
+weight average for the recurrent families). At those
 values ``key_fields`` leaves the field out, so those results keep their keys."""
 
 

@@ -58,7 +58,7 @@ from legato_drake.invariants import (
 )
 from legato_drake.learning.config import LearningConfig
 from legato_drake.learning.encoders import ImageEncoder, encode_sequence
-from legato_drake.learning.family import PolicyFamily, Stats
+from legato_drake.learning.family import PolicyFamily, Stats, update_average
 from legato_drake.learning.normalization import Normalizer
 
 REPRESENTATIONS = {"dp_velocity": "velocity", "dp_reltraj": "reltraj"}
@@ -364,14 +364,9 @@ class DiffusionPolicy(PolicyFamily):
         return history_from_observations(batch["obs"]["delta_positions"][:, last],
                                          batch["obs"]["delta_eulers"][:, last])
 
-    @torch.no_grad()
     def after_step(self, step: int) -> None:
-        decay = min(self.config.ema_decay, (1 + step) / (10 + step))
-        for average, current in zip(self.ema.parameters(), self.net.parameters(),
-                                    strict=True):
-            average.lerp_(current, 1 - decay)
-        for average, current in zip(self.ema.buffers(), self.net.buffers(), strict=True):
-            average.copy_(current)
+        update_average(self.ema, self.net.parameters(), self.net.buffers(), step,
+                       self.config.ema_decay)
 
     def rollout_state_dict(self) -> dict[str, torch.Tensor]:
         """Without the trained weights ``net``: a rollout runs the EMA copy alone, so a

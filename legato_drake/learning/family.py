@@ -13,7 +13,7 @@ window.
 from __future__ import annotations
 
 import abc
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 import torch
@@ -89,3 +89,18 @@ class PolicyFamily(nn.Module, abc.ABC):
         """One decision: raw observations (B, ...) without a time axis and the rollout state
         -> the predicted actions (B, P, 7) (P = 1 for a single-step policy; the first
         ``execute_steps`` are executed) and the next rollout state."""
+
+
+@torch.no_grad()
+def update_average(average: nn.Module, parameters: Iterable[torch.Tensor],
+                   buffers: Iterable[torch.Tensor], step: int, max_decay: float) -> None:
+    """One step of an exponential moving average of weights (a family's ``after_step``):
+    the parameters of ``average`` move ``1 - decay`` of the way to ``parameters`` (the trained
+    copy's, in the same order), its buffers take ``buffers``; the decay warms up as
+    ``(1 + step) / (10 + step)`` to ``max_decay``, so early averages forget the random
+    initialisation quickly."""
+    decay = min(max_decay, (1 + step) / (10 + step))
+    for mean, current in zip(average.parameters(), parameters, strict=True):
+        mean.lerp_(current, 1 - decay)
+    for mean, current in zip(average.buffers(), buffers, strict=True):
+        mean.copy_(current)

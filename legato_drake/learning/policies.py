@@ -23,11 +23,16 @@ With ``object_aux_weight`` > 0 (image mode), training adds that weight times the
 error of a linear head that regresses the normalised ``object_in_tcp`` from the image
 features (the ``aux`` term): privileged supervision that makes the encoder locate the objects.
 The head is not used at rollout.
+
+With ``ema`` the policy also holds ``ema``, a copy of itself whose weights are the moving
+average of the trained ones (``family.update_average``); in eval mode ``forward`` and
+``losses`` (validation), and ``act`` and ``estimate_objects`` always, run the copy.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import copy
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,7 +49,7 @@ from legato_drake.invariants import (
 )
 from legato_drake.learning.config import LearningConfig
 from legato_drake.learning.encoders import ImageEncoder, encode_sequence
-from legato_drake.learning.family import PolicyFamily, Stats
+from legato_drake.learning.family import PolicyFamily, Stats, update_average
 from legato_drake.learning.normalization import Normalizer
 
 Hidden = tuple[torch.Tensor, torch.Tensor]
@@ -135,6 +140,9 @@ class RecurrentGMMPolicy(PolicyFamily):
             self.object_normalizer = Normalizer(target, np.asarray(stats["object_in_tcp"]["std"]))
             self.object_head = nn.Linear(config.feature_dim * len(self.image_keys), len(target))
             self.loss_terms = ("nll", "ce", "invar", "aux", "total")
+        self.ema: RecurrentGMMPolicy | None = None
+        if config.ema:  # registered last: the trained parameters keep their order
+            self.ema = copy.deepcopy(self).requires_grad_(False)
 
     def _columns(self, key: str) -> slice:
         """The columns of low-dim observation ``key`` the network reads."""
@@ -161,7 +169,10 @@ class RecurrentGMMPolicy(PolicyFamily):
 
     def forward(self, obs: Mapping[str, torch.Tensor], hidden: Hidden | None = None
                 ) -> tuple[PolicyOutput, Hidden]:
-        """The heads' outputs for raw observations (B, T, ...), and the new RNN state."""
+        """The heads' outputs for raw observations (B, T, ...), and the new RNN state (in
+        eval mode, the weight average's if there is one)."""
+        if self.ema is not None and not self.training:
+            return self.ema(obs, hidden)
         return self._heads(self.features(obs), hidden)
 
     def _heads(self, features: torch.Tensor, hidden: Hidden | None = None
@@ -189,10 +200,21 @@ class RecurrentGMMPolicy(PolicyFamily):
             grasp = grasp.to(delta.dtype)
         return torch.cat([delta, grasp[..., None]], -1)
 
+    def _trained(self, named: Iterator[tuple[str, torch.Tensor]]) -> Iterator[torch.Tensor]:
+        """The trained copy's tensors of ``named_parameters()`` or ``named_buffers()``."""
+        return (value for name, value in named if not name.startswith("ema."))
+
+    def after_step(self, step: int) -> None:
+        if self.ema is not None:
+            update_average(self.ema, self._trained(self.named_parameters()),
+                           self._trained(self.named_buffers()), step, self.config.ema_decay)
+
     def losses(self, batch: Mapping) -> dict[str, torch.Tensor]:
         """The loss terms of a batch of sequences (``DemoSequenceDataset`` items, collated):
         ``nll``, ``ce`` (0 for BC-RNN), ``invar`` and the weighted ``total``; padded steps
-        are left out."""
+        are left out. In eval mode, those of the weight average if there is one."""
+        if self.ema is not None and not self.training:
+            return self.ema.losses(batch)
         cfg = self.config
         obs, actions = batch["obs"], batch["actions"]
         mask = batch["pad_mask"]
@@ -237,6 +259,8 @@ class RecurrentGMMPolicy(PolicyFamily):
         acts on it. Needs ``object_aux_weight`` > 0."""
         if self.object_head is None:
             raise ValueError("this policy has no object head (object_aux_weight is 0)")
+        if self.ema is not None:
+            return self.ema.estimate_objects(obs)
         return self.object_normalizer.inverse(self._object_head(self.features(obs)))
 
     def initial_state(self) -> RecurrentState:
@@ -249,6 +273,8 @@ class RecurrentGMMPolicy(PolicyFamily):
         action (B, 1, 7) and the next state: the LSTM state, started afresh every
         ``seq_length`` steps (``rnn_memory: reset``), or the last frames' features, over which
         the LSTM runs from a zero state (``window``)."""
+        if self.ema is not None:
+            return self.ema.act(obs, state)
         features = self.features({k: v[:, None] for k, v in obs.items()})
         if self.config.rnn_memory == "window":
             frames = (*state.window, features[:, 0].numpy().copy())
