@@ -249,9 +249,9 @@ def test_training_keys_leave_out_the_rollout_fields_alone(tmp_path):
 def test_fields_added_at_a_neutral_value_keep_the_keys_of_older_runs(tmp_path):
     """A run recorded before L_invar's turn resolution, Min-SNR weighting, image resizing,
     the object loss, the learning-rate schedule, the LSTM's rollout memory and the recurrent
-    families' weight average existed keeps
-    its keys for a config that sets them to what the code did before; other values get new
-    keys (a rollout field's only where the trials are keyed: the training is shared)."""
+    families' weight average existed keeps its keys for a config that sets them to what the
+    code did before; other values get new keys (a rollout field's only where the trials are
+    keyed: the training is shared)."""
     config = tiny_config()
     older = {k: v for k, v in config.to_dict().items()
              if k not in ("invariant_turn_eps", "invariant_snr_clip", "image_resize",
