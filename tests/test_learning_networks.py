@@ -9,6 +9,7 @@ import torch.nn.functional as F  # noqa: N812
 
 from legato_drake.data.derived import observation_sizes
 from legato_drake.data.torch_dataset import DemoSequenceDataset, image_to_tensor
+from legato_drake.errors import ConfigError
 from legato_drake.learning.encoders import (
     ImageEncoder,
     SpatialSoftmax,
@@ -398,3 +399,11 @@ def test_the_weight_average_follows_the_trained_weights_and_is_what_validates_an
     action, _ = averaged.act(obs, averaged.initial_state())
     torch.testing.assert_close(action, as_average.act(obs, as_average.initial_state())[0])
     assert not torch.allclose(action, as_trained.act(obs, as_trained.initial_state())[0])
+    # a shipped checkpoint keeps the average alone, and acts as it does
+    kept = averaged.rollout_state_dict()
+    assert kept and all(k.startswith("ema.") for k in kept)
+    shipped = RecurrentGMMPolicy(tiny_config(ema=True), _stats()).eval()
+    shipped.load_rollout_state_dict(kept)
+    torch.testing.assert_close(shipped.act(obs, shipped.initial_state())[0], action)
+    with pytest.raises(ConfigError, match="ema .*for legato and bc_rnn"):
+        tiny_config(algo="dp_velocity", ema=True)

@@ -159,8 +159,9 @@ class LearningConfig:
     """Diffusion Policy: DDIM denoising steps per decision at rollout."""
     ema: bool = False
     """LEGATO and BC-RNN: also keep an exponential moving average of the weights (decay
-    ``ema_decay``) and validate, select and roll out the average; the trained weights stay in
-    the checkpoints beside it. Diffusion Policy always averages."""
+    ``ema_decay``) and validate, select and roll out the average; a training checkpoint keeps
+    the trained weights beside it, a snapshot or shipped one the average alone. Diffusion
+    Policy always averages."""
     ema_decay: float = 0.999
     """The most a step keeps of the weights' moving average (warmed up as
     ``(1 + step) / (10 + step)``); rollout and validation use the average. Diffusion Policy
@@ -236,6 +237,9 @@ class LearningConfig:
         if self.lr_schedule not in LR_SCHEDULES:
             raise bad("lr_schedule", f"must be one of {', '.join(LR_SCHEDULES)}, got "
                                      f"{self.lr_schedule!r}")
+        if self.ema and self.algo not in ("legato", "bc_rnn"):
+            raise bad("ema", f"is for legato and bc_rnn ({self.algo} always averages its "
+                             f"weights), got true")
         if not (math.isfinite(self.ema_decay) and 0 <= self.ema_decay < 1):
             raise bad("ema_decay", f"must be in [0, 1), got {self.ema_decay}")
         for name in ("lr", "min_std", "invariant_eps", "invariant_turn_eps"):

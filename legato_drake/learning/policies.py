@@ -142,7 +142,7 @@ class RecurrentGMMPolicy(PolicyFamily):
             self.loss_terms = ("nll", "ce", "invar", "aux", "total")
         self.ema: RecurrentGMMPolicy | None = None
         if config.ema:  # registered last: the trained parameters keep their order
-            self.ema = copy.deepcopy(self).requires_grad_(False)
+            self.ema = copy.deepcopy(self, {id(config): config}).requires_grad_(False)
 
     def _columns(self, key: str) -> slice:
         """The columns of low-dim observation ``key`` the network reads."""
@@ -208,6 +208,20 @@ class RecurrentGMMPolicy(PolicyFamily):
         if self.ema is not None:
             update_average(self.ema, self._trained(self.named_parameters()),
                            self._trained(self.named_buffers()), step, self.config.ema_decay)
+
+    def rollout_state_dict(self) -> dict[str, torch.Tensor]:
+        """With ``ema``, the average alone (what a rollout runs)."""
+        state = self.state_dict()
+        return state if self.ema is None else {
+            k: v for k, v in state.items() if k.startswith("ema.")}
+
+    def load_rollout_state_dict(self, state: Mapping[str, torch.Tensor]) -> None:
+        """With ``ema``, the average, copied into the trained weights too (where a rollout
+        never reads them)."""
+        if self.ema is not None:
+            state = {**state, **{k[len("ema."):]: v for k, v in state.items()
+                                 if k.startswith("ema.")}}
+        self.load_state_dict(state)
 
     def losses(self, batch: Mapping) -> dict[str, torch.Tensor]:
         """The loss terms of a batch of sequences (``DemoSequenceDataset`` items, collated):
