@@ -20,9 +20,14 @@ from tests.learning_helpers import synthetic_dataset, tiny_config
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 
 
-def _losses(run: Path) -> list[float]:
+def _column(run: Path, name: str) -> list[float]:
+    """Column ``name`` of a run's training log, the steps that have it."""
     with open(run / "log.csv", newline="") as f:
-        return [float(row["total"]) for row in csv.DictReader(f)]
+        return [float(row[name]) for row in csv.DictReader(f) if row[name]]
+
+
+def _losses(run: Path) -> list[float]:
+    return _column(run, "total")
 
 
 @pytest.fixture(scope="module")
@@ -169,11 +174,6 @@ def test_resume_continues_the_step_count_with_the_same_losses(tmp_path, data):
     starts = json.loads((tmp_path / "split" / "machine.json").read_text())
     assert [entry["step"] for entry in starts] == [0, 10]
     assert starts[0]["torch"] == torch.__version__ and starts[0]["cpu_capability"]
-
-
-def _column(run: Path, name: str) -> list[float]:
-    with open(run / "log.csv", newline="") as f:
-        return [float(row[name]) for row in csv.DictReader(f) if row[name]]
 
 
 def test_a_weight_average_leaves_the_training_alone_and_survives_a_resume(tmp_path, data):

@@ -300,9 +300,9 @@ NEUTRAL_VALUES = {
 """Fields added after experiments had keyed their results on whole configs, each with a test
 for the values at which it does what the code did before it existed (L_invar's turn
 resolution was its motion resolution; every noise level weighed alike; images kept at 128 x
-128; no auxiliary object loss; a constant learning rate; the LSTM reset at rollout; no
-weight average for the recurrent families). At those
-values ``key_fields`` leaves the field out, so those results keep their keys."""
+128; no auxiliary object loss; a constant learning rate; the LSTM reset at rollout; no weight
+average for the recurrent families). At those values ``key_fields`` leaves the field out, so
+those results keep their keys."""
 
 
 def key_fields(config: LearningConfig | dict) -> dict:
