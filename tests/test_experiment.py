@@ -24,7 +24,8 @@ import pytest
 import torch
 
 from legato_drake.errors import ConfigError
-from legato_drake.executor import Blob
+from legato_drake.executor import Blob, make_backend
+from legato_drake.experiment import runner
 from legato_drake.experiment.grid import load_grid, subset
 from legato_drake.experiment.report import overall_table, task_table
 from legato_drake.experiment.runner import (
@@ -98,6 +99,11 @@ methods: [{name: a, config: legato_small_state.yaml}]
      "datasets[0].task: unknown 'soup'; valid values: lid, cup, ladle"),
     ("datasets: [{task: lid, noise_full_speed: 0}]\nmethods: [{name: a, config: "
      "legato_small_state.yaml}]", "datasets[0].noise_full_speed must be a positive speed"),
+    ("datasets: [{task: lid, cameras: true, camera_model: orthographic}]\nmethods: [{name: a, "
+     "config: legato_small_state.yaml}]",
+     "datasets[0].camera_model: unknown 'orthographic'; valid values: pinhole, fisheye"),
+    ("datasets: [{task: lid, camera_model: fisheye}]\nmethods: [{name: a, config: "
+     "legato_small_state.yaml}]", "datasets[0].camera_model 'fisheye' needs cameras: true"),
     (GOOD + "training: {seeds: 0}", "training.seeds must be a list"),
     (GOOD + "training: {threads: two}", "training.threads must be an integer"),
     (GOOD + "training: {device: tpu}", "training.device: unknown 'tpu'; valid values: cpu"),
@@ -194,20 +200,41 @@ def test_dataset_keys_follow_the_experts_demo_version(tmp_path, monkeypatch):
     assert not runs & {r.key for r in plan_runs(grid, tmp_path)}
 
 
-def test_dataset_keys_name_the_noise_full_speed_unless_default(tmp_path):
-    """``noise_full_speed`` at its default keeps the dataset keys of grids written before it
-    existed; another value is another dataset."""
+def test_dataset_keys_name_the_noise_full_speed_and_the_lens_unless_default(tmp_path,
+                                                                             monkeypatch):
+    """``noise_full_speed`` and ``camera_model`` at their defaults keep the dataset keys of
+    grids written before them; another value is another dataset, and the lens is the one the
+    grid's collection records with."""
     grid = load_grid(_grid(tmp_path, GOOD))
     task = grid.evaluation.tasks[0]
     spec = grid.dataset_for(task)
-    before = {k: v for k, v in dataclasses.asdict(spec).items() if k != "noise_full_speed"}
+    before = {k: v for k, v in dataclasses.asdict(spec).items()
+              if k not in ("noise_full_speed", "camera_model")}
     first = dataset_path(grid, task, tmp_path)
     version = TASKS[task].demo_version
     assert first.name.endswith(unit_key("dataset", before, *([version] if version != 1
                                                              else []))[:10] + ".hdf5")
     spec.noise_full_speed = 0.03
-    assert dataset_path(grid, task, tmp_path) != first
+    slow = dataset_path(grid, task, tmp_path)
+    assert slow != first
     assert spec.expert_noise().full_speed == 0.03
+    spec.cameras, spec.camera_model = True, "fisheye"
+    fisheye = dataset_path(grid, task, tmp_path)
+    spec.camera_model = "pinhole"
+    assert len({fisheye, dataset_path(grid, task, tmp_path), slow}) == 3
+
+    class Collected(Exception):
+        pass
+
+    def collect(*args, **kwargs):
+        raise Collected(kwargs)
+
+    monkeypatch.setattr(runner, "collect", collect)
+    spec.camera_model = "fisheye"
+    with pytest.raises(Collected) as caught:
+        runner.run_experiment(grid, tmp_path / "out", make_backend("local", 1))
+    assert caught.value.args[0]["camera"] is True
+    assert caught.value.args[0]["camera_model"] == "fisheye"
 
 
 def test_trial_keys_name_the_target_lead_bound_unless_unbounded(tmp_path):

@@ -34,7 +34,7 @@ from legato_drake.files import read_text_file
 from legato_drake.learning.config import LearningConfig, load_config
 from legato_drake.pipelines.evaluate import EVAL_SEED0
 from legato_drake.pipelines.selection import SELECT_SEED0
-from legato_drake.scenario import DEFAULT_MAX_TARGET_LEAD, ExpertNoiseConfig
+from legato_drake.scenario import CAMERA_MODELS, DEFAULT_MAX_TARGET_LEAD, ExpertNoiseConfig
 from legato_drake.tasks import TASKS
 
 CONFIGS_DIR = Path(__file__).resolve().parents[2] / "configs"
@@ -50,6 +50,8 @@ class DatasetSpec:
     embodiment: str = "abstract"
     episodes: int = 150
     cameras: bool = False
+    camera_model: str = "pinhole"
+    """The cameras' lens (``camera.model``: pinhole or fisheye); only with ``cameras``."""
     noise_mm: float = 5.0
     """DART-style expert noise (position, millimetres); 0 for none."""
     noise_deg: float = 2.0
@@ -60,11 +62,13 @@ class DatasetSpec:
 
     def key_fields(self) -> dict:
         """The fields that name the dataset in its unit key: all of them, but
-        ``noise_full_speed`` at its default (so that the datasets of grids written before it
-        existed keep their keys)."""
+        ``noise_full_speed`` and ``camera_model`` at their defaults (so that the datasets of
+        grids written before them keep their keys)."""
         fields = dataclasses.asdict(self)
         if self.noise_full_speed == conventions.EXPERT_NOISE_FULL_SPEED:
             del fields["noise_full_speed"]
+        if self.camera_model == "pinhole":
+            del fields["camera_model"]
         return fields
 
     def expert_noise(self) -> ExpertNoiseConfig:
@@ -205,6 +209,10 @@ def validate(grid: Grid) -> Grid:
         _one_of(f"datasets[{i}].task", d.task, TASKS)
         _one_of(f"datasets[{i}].embodiment", d.embodiment, EMBODIMENTS)
         _at_least(f"datasets[{i}].episodes", d.episodes, 1)
+        _one_of(f"datasets[{i}].camera_model", d.camera_model, CAMERA_MODELS)
+        if d.camera_model != "pinhole" and not d.cameras:
+            raise ConfigError(f"datasets[{i}].camera_model {d.camera_model!r} needs "
+                              "cameras: true")
         _at_least(f"datasets[{i}].noise_mm", d.noise_mm, 0)
         _at_least(f"datasets[{i}].noise_deg", d.noise_deg, 0)
         if not d.noise_full_speed > 0:
