@@ -72,7 +72,7 @@ def main(argv: list[str] | None = None) -> None:
                              figsize=(2.0 * len(args.steps), 2.1 * len(rows)))
     for r, (path, key) in enumerate(rows):
         frames, indices, model = demo_frames(path, args.demo, args.steps, key)
-        for c, (frame, step) in enumerate(zip(frames, indices)):
+        for c, (frame, step) in enumerate(zip(frames, indices, strict=True)):
             ax = axes[r][c]
             ax.imshow(frame, cmap="gray", vmin=0, vmax=255)
             ax.set_xticks([])

@@ -223,15 +223,15 @@ def test_dataset_keys_name_the_noise_full_speed_and_the_lens_unless_default(tmp_
     spec.camera_model = "pinhole"
     assert len({fisheye, dataset_path(grid, task, tmp_path), slow}) == 3
 
-    class Collected(Exception):
+    class CollectCalledError(Exception):
         pass
 
     def collect(*args, **kwargs):
-        raise Collected(kwargs)
+        raise CollectCalledError(kwargs)
 
     monkeypatch.setattr(runner, "collect", collect)
     spec.camera_model = "fisheye"
-    with pytest.raises(Collected) as caught:
+    with pytest.raises(CollectCalledError) as caught:
         runner.run_experiment(grid, tmp_path / "out", make_backend("local", 1))
     assert caught.value.args[0]["camera"] is True
     assert caught.value.args[0]["camera_model"] == "fisheye"

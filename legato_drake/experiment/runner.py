@@ -429,8 +429,8 @@ def run_experiment(grid: Grid, out: str | Path, executor: Executor,
         if not path.is_file():
             collected += 1
         collect(spec.task, spec.embodiment, spec.episodes, path, seed0=spec.seed0,
-                camera=spec.cameras, camera_model=spec.camera_model, progress=progress, executor=executor,
-                expert_noise=spec.expert_noise())
+                camera=spec.cameras, camera_model=spec.camera_model, progress=progress,
+                executor=executor, expert_noise=spec.expert_noise())
     runs = plan_runs(grid, out)
     # absolute: a Ray worker on this machine runs in a folder of its own
     scratch = (out / "runs" / ".training").resolve() if executor.shares_files else None
