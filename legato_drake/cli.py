@@ -17,7 +17,7 @@ from typing import NoReturn
 from legato_drake import __version__, conventions
 from legato_drake.errors import ConfigError, LegatoError, one_line
 from legato_drake.executor import BACKENDS
-from legato_drake.files import check_output_dir, check_output_file
+from legato_drake.files import check_output_dir, check_output_file, require_file
 
 log = logging.getLogger("legato_drake")
 
@@ -112,10 +112,7 @@ def _demo_checkpoint(args: argparse.Namespace, base, controller: str, task: str)
     if controller != "policy":
         return base.checkpoint
     if args.checkpoint:
-        path = Path(args.checkpoint)
-        if not path.is_file():
-            raise ConfigError(f"--checkpoint {path}: file not found")
-        return str(path)
+        return str(require_file(args.checkpoint, "--checkpoint"))
     if base.checkpoint:
         return base.checkpoint
     shipped = shipped_checkpoint(task)
@@ -160,6 +157,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
     seeds = args.seeds if args.seeds is not None else [base.seed]
     controller = args.controller or (base.controller if args.scenario else "policy")
     checkpoints = {task: _demo_checkpoint(args, base, controller, task) for task in tasks}
+    if controller == "policy":
+        from legato_drake.learning.checkpoint import load_checkpoint
+
+        for path in set(checkpoints.values()):
+            load_checkpoint(path)  # a file that is not a policy is refused before any episode
     if args.no_camera:
         base.camera.enabled = False
     out = Path(args.out)
@@ -298,8 +300,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     except RuntimeError:
         raise ConfigError(f"--device {args.device!r}: expected cpu, cuda or cuda:N") from None
     config = load_config(args.config, args.set)
-    if not Path(args.data).is_file():
-        raise ConfigError(f"--data {args.data}: dataset file not found")
+    require_file(args.data, "--data dataset file")
     out = check_output_dir(Path(args.out), "--out")
     if args.overwrite and out.is_dir():
         _set_aside(args, [*(out / name for name in RUN_FILES), *out.glob("step_*.pt")],
@@ -367,9 +368,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
 def cmd_export(args: argparse.Namespace) -> int:
     """Writes a dataset in another framework's layout (LeRobot v3.0, or robomimic's image
     path) and reads it back."""
-    data = Path(args.data)
-    if not data.is_file():
-        raise ConfigError(f"DATA {data}: dataset file not found")
+    data = require_file(args.data, "DATA dataset file")
     if args.format == "lerobot":
         from legato_drake.data.export_lerobot import export_lerobot
 

@@ -10,7 +10,7 @@ import tempfile
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
-from legato_drake.errors import ConfigError
+from legato_drake.errors import ConfigError, LegatoError
 
 
 def atomic_write_text(path: Path, text: str) -> None:
@@ -46,14 +46,22 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
         raise
 
 
+def require_file(path: str | Path, what: str,
+                 error: type[LegatoError] = ConfigError) -> Path:
+    """``path``, if it is an existing file; else ``error`` naming ``what`` (e.g. "--data
+    dataset file") and the path: not found, or a folder where a file is expected."""
+    path = Path(path)
+    if path.is_dir():
+        raise error(f"{what} {path} is a folder, not a file")
+    if not path.is_file():
+        raise error(f"{what} not found: {path}")
+    return path
+
+
 def read_text_file(path: str | Path, what: str) -> str:
     """The UTF-8 text of a file a user wrote; ConfigError naming ``what`` (e.g. "scenario
     file") and the path if it is missing, a folder, unreadable or not text."""
-    path = Path(path)
-    if not path.exists():
-        raise ConfigError(f"{what} not found: {path}")
-    if not path.is_file():
-        raise ConfigError(f"{what} {path} is not a file")
+    path = require_file(path, what)
     try:
         data = path.read_bytes()
     except OSError as e:

@@ -302,6 +302,7 @@ def test_train_checks_its_files_and_device_first(tmp_path, capsys):
     new = str(tmp_path / "new")
     for args, words in (
             (["--config", str(config), "--data", str(tmp_path / "no.hdf5")], ["--data"]),
+            (["--config", str(config), "--data", str(tmp_path)], ["--data", "is a folder"]),
             (["--config", str(tmp_path / "no.yaml"), "--data", str(data)], ["no.yaml"]),
             (["--config", str(config), "--data", str(data), "--device", "gpu"],
              ["--device", "gpu"])):
@@ -309,6 +310,28 @@ def test_train_checks_its_files_and_device_first(tmp_path, capsys):
         assert code == 2
         _one_error_line(err, *words)
     assert not (tmp_path / "new").exists()
+
+
+def test_a_checkpoint_that_is_not_one_is_refused_before_any_episode(tmp_path, capsys,
+                                                                    monkeypatch):
+    """``demo`` and ``evaluate`` read the checkpoint first: a folder or a file torch did not
+    write is one line naming it, and no episode starts."""
+    from legato_drake.pipelines import episodes
+
+    monkeypatch.setattr(episodes, "run_episodes", lambda *a, **k: pytest.fail("ran"))
+    empty = tmp_path / "empty.pt"
+    empty.write_bytes(b"")
+    for verb, path, words in (("demo", empty, ["cannot read checkpoint", "torch.save"]),
+                              ("demo", tmp_path, ["--checkpoint", "is a folder"]),
+                              ("evaluate", tmp_path, ["checkpoint", "is a folder"]),
+                              ("evaluate", empty, ["cannot read checkpoint"])):
+        extra = ["--no-replay", "--no-camera"] if verb == "demo" else [
+            "--out", str(tmp_path / "eval")]
+        code, _, err = _main(capsys, verb, "--embodiment", "abstract", "--task", "lid",
+                             "--checkpoint", str(path), *extra)
+        assert code == 2
+        _one_error_line(err, str(path), *words)
+    assert not (tmp_path / "eval").exists()
 
 
 def test_collect_never_shrinks_a_dataset(tmp_path, capsys, monkeypatch):

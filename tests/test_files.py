@@ -5,8 +5,13 @@ from __future__ import annotations
 import pytest
 import yaml
 
-from legato_drake.errors import ConfigError, one_line, yaml_problem
-from legato_drake.files import check_output_dir, check_output_file, read_text_file
+from legato_drake.errors import ConfigError, LegatoError, one_line, yaml_problem
+from legato_drake.files import (
+    check_output_dir,
+    check_output_file,
+    read_text_file,
+    require_file,
+)
 
 
 def test_read_text_file(tmp_path):
@@ -20,6 +25,18 @@ def test_read_text_file(tmp_path):
         with pytest.raises(ConfigError, match=words) as error:
             read_text_file(path, "scenario file")
         assert str(path) in str(error.value) and "scenario file" in str(error.value)
+
+
+def test_require_file_names_a_missing_file_and_a_folder(tmp_path):
+    class ThingError(LegatoError):
+        pass
+
+    (tmp_path / "a.pt").write_bytes(b"x")
+    assert require_file(tmp_path / "a.pt", "--checkpoint") == tmp_path / "a.pt"
+    with pytest.raises(ConfigError, match=r"^--data dataset file not found: .*none\.h5$"):
+        require_file(tmp_path / "none.h5", "--data dataset file")
+    with pytest.raises(ThingError, match=r"^checkpoint .* is a folder, not a file$"):
+        require_file(tmp_path, "checkpoint", ThingError)
 
 
 def test_output_locations(tmp_path):

@@ -20,7 +20,7 @@ from legato_drake.data.pose_stream import (
     write_pose_stream,
 )
 from legato_drake.diagram import build_diagram
-from legato_drake.errors import ConfigError
+from legato_drake.errors import ConfigError, LegatoError
 from legato_drake.pipelines.pose_streams import scripted_pose_stream
 from legato_drake.poses import apply_delta, pose_error, pose_to_vector, vector_to_pose
 from legato_drake.scenario import Scenario, scenario_from_yaml_text
@@ -166,10 +166,17 @@ def test_replay_system_alone():
 
 def test_replaying_a_scripted_recording_reproduces_the_success(tmp_path):
     """A scripted demonstration written as a 200 Hz stream in a tracker frame, replayed by
-    ``collect --source``, succeeds as the scripted episode does."""
+    ``collect --source``, succeeds as the scripted episode does; a bad stream before it is
+    refused before anything is written, so the corrected command then runs."""
     from legato_drake.data.layout import check_file, open_dataset
-    from legato_drake.pipelines.collect import collect
+    from legato_drake.pipelines.collect import collect, parts_dir
 
+    (tmp_path / "bad").mkdir()
+    (tmp_path / "bad" / "typo.csv").write_text("a,b\n0,1\n")
+    with pytest.raises(LegatoError, match="missing column 't'"):
+        collect("lid", "abstract", 5, tmp_path / "replayed.hdf5", source=tmp_path / "bad",
+                camera=False)
+    assert not parts_dir(tmp_path / "replayed.hdf5").exists()
     stream = scripted_pose_stream("lid", seed=1, rate=200.0, X_WT=X_TRACKER)
     write_pose_stream(tmp_path / "streams" / "seed1.csv", stream)
     report = collect("lid", "abstract", 5, tmp_path / "replayed.hdf5",

@@ -32,6 +32,7 @@ import h5py
 import numpy as np
 
 from legato_drake.errors import LegatoError
+from legato_drake.files import require_file
 
 FORMAT = "legato_drake.demonstrations"
 FORMAT_VERSION = 1
@@ -142,9 +143,7 @@ def mask_names(f: h5py.File, split: str) -> list[str]:
 def open_dataset(path: str | Path) -> Iterator[h5py.File]:
     """Opens a dataset file read-only; a missing, truncated or non-HDF5 file raises
     DatasetError naming it (instead of h5py's OSError)."""
-    path = Path(path)
-    if not path.is_file():
-        raise DatasetError(f"dataset file not found: {path}")
+    path = require_file(path, "dataset file", DatasetError)
     try:
         f = h5py.File(path, "r")
     except OSError as e:

@@ -24,7 +24,7 @@ from pathlib import Path
 import torch
 
 from legato_drake.errors import ConfigError, LegatoError
-from legato_drake.files import atomic_write_bytes
+from legato_drake.files import atomic_write_bytes, require_file
 from legato_drake.learning.config import ROLLOUT_FIELDS, LearningConfig, config_from_dict
 from legato_drake.learning.family import PolicyFamily
 from legato_drake.learning.normalization import stats_from_lists, stats_to_lists
@@ -97,12 +97,12 @@ def save_checkpoint(path: str | Path, ckpt: Checkpoint,
 
 def _read(path: Path, device: str = "cpu") -> dict:
     """The raw payload of the checkpoint at ``path`` (checked to be one of ours)."""
-    if not path.is_file():
-        raise CheckpointError(f"checkpoint not found: {path}")
+    require_file(path, "checkpoint", CheckpointError)
     try:
         payload = torch.load(path, map_location=device, weights_only=False)
     except Exception as e:  # noqa: BLE001 - torch raises many kinds on a bad file
-        raise CheckpointError(f"cannot read checkpoint {path}: {e}") from None
+        raise CheckpointError(f"cannot read checkpoint {path}: not a file torch.save wrote "
+                              f"({type(e).__name__}: {e})") from None
     if not isinstance(payload, dict) or payload.get("format") != FORMAT:
         raise CheckpointError(f"{path} is not a legato_drake checkpoint")
     if payload.get("version") != VERSION:

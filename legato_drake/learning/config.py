@@ -17,6 +17,7 @@ from pydrake.common.yaml import yaml_dump, yaml_load
 
 from legato_drake.data.layout import HISTORY, HISTORY_KEYS
 from legato_drake.errors import ConfigError
+from legato_drake.files import require_file
 
 OBS_MODES = ("image", "state")
 ENCODERS = ("resnet18", "small")
@@ -402,9 +403,7 @@ def apply_rollout_overrides(config: LearningConfig, overrides: list[str] | None,
 
 def load_config(path: str | Path, overrides: list[str] | None = None) -> LearningConfig:
     """Loads a learning config YAML file (errors name the file and the field)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"learning config file not found: {path}")
+    path = require_file(path, "learning config file")
     try:
         raw = yaml_load(data=path.read_text()) if path.read_text().strip() else {}
     except Exception as e:  # noqa: BLE001 - the YAML parser's many error types

@@ -43,7 +43,7 @@ from legato_drake.data.derived import available_observations, planned_actions, r
 from legato_drake.data.layout import DatasetError, open_dataset, recorded_camera, sorted_demos
 from legato_drake.data.torch_dataset import DemoSequenceDataset
 from legato_drake.errors import ConfigError
-from legato_drake.files import atomic_write_text
+from legato_drake.files import atomic_write_text, require_file
 from legato_drake.learning.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from legato_drake.learning.config import LearningConfig, config_from_dict, save_config
 from legato_drake.learning.family import PolicyFamily
@@ -90,8 +90,7 @@ def seed_everything(seed: int) -> None:
 def check_data(path: Path, config: LearningConfig) -> list[int]:
     """Clear errors before training: a missing file, observations the config needs but the
     file lacks (e.g. images in a state-only dataset). Returns the demos' scene seeds."""
-    if not path.is_file():
-        raise DatasetError(f"dataset file not found: {path}")
+    require_file(path, "dataset file", DatasetError)
     with open_dataset(path) as f:
         names = sorted_demos(f["data"])
         if not names:

@@ -371,6 +371,14 @@ def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers:
                   expert_noise=dataclasses.asdict(base.expert_noise),
                   stop_on_success=stop_on_success, demo_version=TASKS[task].demo_version)
     folder = parts_dir(out)
+    # every stream is read (and refused, if bad) before anything is written
+    if source is not None:
+        jobs = _stream_jobs(base, folder, Path(source), seed0, episodes)
+        needed, keep_all = len(jobs), True
+    else:
+        attempts = max_attempts if max_attempts is not None else 3 * episodes + 10
+        jobs = _seed_jobs(base, folder, seed0, max(attempts, episodes))
+        needed, keep_all = episodes, keep_failures
     if out.exists() and not folder.exists():
         manifest = _up_to_date(out, config)
         if manifest is not None and source is None:
@@ -384,14 +392,6 @@ def collect(task: str, embodiment: str, episodes: int, out: str | Path, workers:
     outcomes = scan_parts(folder)
     if outcomes:
         log.info("resuming: %d episode(s) already recorded in %s", len(outcomes), folder)
-
-    if source is not None:
-        jobs = _stream_jobs(base, folder, Path(source), seed0, episodes)
-        needed, keep_all = len(jobs), True
-    else:
-        attempts = max_attempts if max_attempts is not None else 3 * episodes + 10
-        jobs = _seed_jobs(base, folder, seed0, max(attempts, episodes))
-        needed, keep_all = episodes, keep_failures
     order = {job.key: i for i, job in enumerate(jobs)}
     keepable = [k for k, o in outcomes.items() if k in order and _keepable(o, keep_all)]
     bar = progress_bar(progress=progress, total=needed, initial=min(len(keepable), needed),

@@ -170,8 +170,9 @@ def evaluate(checkpoint: str | Path, embodiments: Sequence[str], tasks: Sequence
                     "diagnostic, not an evaluation", len(overlap), len(seeds), checkpoint)
     elif overlap:
         raise ConfigError(f"evaluation seeds {overlap[:5]} were used for training or "
-                          f"checkpoint selection ({checkpoint}); choose --seed0 past "
-                          f"{max(ckpt.used_seeds)}, or --seen-scenes for a diagnostic")
+                          f"checkpoint selection ({checkpoint}); choose scene seeds past "
+                          f"{max(ckpt.used_seeds)} (--seeds or --seed0), or --seen-scenes "
+                          "for a diagnostic")
     out = Path(out)
     path = results_path(out, method)
     doc = {"format": FORMAT, "method": method, "checkpoint": str(checkpoint),
