@@ -38,6 +38,10 @@ locates what it sees.
 step lies relative to the demo's first grasp command: far from the object, on the final
 approach, just after the grasp, and the rest: where along the task the fit is worst, and
 whether the encoder locates the object better as the gripper nears it.
+
+It also prints how decided the policy's Gaussian mixture is: the weight of its most likely
+component (whose mean is the low-noise action), how often that component changes from one
+step to the next, and how far the action then jumps.
 """
 
 from __future__ import annotations
@@ -127,8 +131,17 @@ class SceneRenderer:
 
 def predict(policy: RecurrentGMMPolicy, obs: dict[str, torch.Tensor]) -> torch.Tensor:
     """The low-noise actions (T, 7) of one window's observations (T, ...)."""
+    return predict_with_modes(policy, obs)[0]
+
+
+def predict_with_modes(policy: RecurrentGMMPolicy, obs: dict[str, torch.Tensor]
+                       ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The low-noise actions (T, 7) of one window's observations, the weight of the GMM's
+    most likely component at each step (T,) and its index (T,)."""
     out, _ = policy({k: v[None] for k, v in obs.items()})
-    return policy.mode_action(out)[0]
+    weights = torch.softmax(out.logits[0], -1)
+    top, index = weights.max(-1)
+    return policy.mode_action(out)[0], top, index
 
 
 PHASES = ((-np.inf, -30, "more than 30 steps before the grasp"),
@@ -199,6 +212,7 @@ def main() -> None:
     rng = np.random.default_rng(0)
     picks = rng.permutation(len(data))[:args.windows]
     trans, rot, step, agree = [], [], [], []
+    top_weight, switched, jumps = [], [], []  # the GMM's most likely component, per step
     labels = [f"frames shifted {k} px" for k in shifts] + \
         [f"objects moved {k:g} mm" for k in offsets]
     moved_labels = [f"objects moved {k:g} mm, frames rendered again" for k in moves]
@@ -213,7 +227,12 @@ def main() -> None:
             item = data[int(i)]
             mask = item["pad_mask"].numpy()
             shown = item["actions"].double().numpy()[mask]
-            acted = predict(policy, item["obs"]).double().numpy()[mask]
+            acted, top, index = predict_with_modes(policy, item["obs"])
+            acted, index = acted.double().numpy()[mask], index.numpy()[mask]
+            top_weight += top.numpy()[mask].tolist()
+            change = index[1:] != index[:-1]
+            switched += change.tolist()
+            jumps += list(1000 * np.linalg.norm(np.diff(acted[:, :3], axis=0), axis=1)[change])
             trans += list(1000 * np.linalg.norm(acted[:, :3] - shown[:, :3], axis=1))
             rot += list(np.degrees(np.linalg.norm(acted[:, 3:6] - shown[:, 3:6], axis=1)))
             step += list(1000 * np.linalg.norm(shown[:, :3], axis=1))
@@ -263,6 +282,11 @@ def main() -> None:
     print(f"  rotation error median {np.median(rot):.2f} deg, 90th percentile "
           f"{np.percentile(rot, 90):.2f} deg")
     print(f"  grasp agreement {np.mean(agree):.3f}")
+    print(f"  the most likely of the GMM's {cfg.gmm_modes} components: its weight median "
+          f"{np.median(top_weight):.2f} (10th percentile {np.percentile(top_weight, 10):.2f}); "
+          f"it changes at {100 * np.mean(switched):.1f} % of consecutive steps, where the "
+          f"translation acted on moves by a median "
+          f"{np.median(jumps) if jumps else 0.0:.2f} mm")
     errors = np.concatenate(misplaced) if misplaced else None
     if errors is not None:
         with h5py.File(args.data, "r") as f:
