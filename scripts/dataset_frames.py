@@ -13,7 +13,6 @@ dataset's ``camera_model``). The row titles give each dataset's file name and ca
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -23,6 +22,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+
+from legato_drake.data.layout import recorded_camera  # noqa: E402
 
 CAMERAS = {"left": ("left_gray",), "right": ("right_gray",), "both": ("left_gray", "right_gray")}
 
@@ -50,10 +51,8 @@ def demo_frames(path: Path, demo: int, steps: list[int], key: str) -> tuple[list
         bad = [s for s in steps if not -n <= s < n]
         if bad:
             raise SystemExit(f"--steps {bad}: demo_{demo} of {path} has {n} steps")
-        indices = [s % n for s in steps]
-        config = json.loads(f["data"].attrs.get("config", "{}"))
-        return [images[i][..., 0] for i in indices], indices, config.get("camera_model",
-                                                                         "pinhole")
+        frames = [images[s % n][..., 0] for s in steps]
+    return frames, [s % n for s in steps], recorded_camera(path).get("model", "pinhole")
 
 
 def main(argv: list[str] | None = None) -> None:
