@@ -142,6 +142,40 @@ def test_the_chunk_invariant_loss_is_zero_on_the_demonstration_and_trains_the_ne
     assert float(exact["invar"]) < 1e-6 and float(exact["mse"]) < 1.0
 
 
+def test_the_object_loss_of_an_image_diffusion_policy_trains_its_encoders_alone():
+    rng = np.random.default_rng(0)
+    config = dp_config("dp_reltraj", obs_mode="image", object_aux_weight=3.0)
+    torch.manual_seed(0)
+    batch = _batch(rng)
+    g = torch.Generator().manual_seed(0)
+    for key in ("left_gray", "right_gray"):
+        batch["obs"][key] = torch.rand(4, P + 1, 1, 16, 16, generator=g)
+    batch["pad_mask"][0, 0] = False  # an observation step the loss must leave out
+    policy = build_policy(config, _stats(config, rng, batch)).train()
+    assert policy.loss_terms == ("mse", "invar", "aux", "total")
+    losses = policy.losses(batch)
+    value = {k: float(v.detach()) for k, v in losses.items()}
+    assert value["aux"] > 0
+    assert value["total"] == pytest.approx(value["mse"] + 3.0 * value["aux"], rel=1e-5)
+    losses["aux"].backward()
+    encoder = policy.net["conditioner"].encoders["left_gray"]
+    assert encoder.trunk[0].weight.grad.abs().sum() > 0
+    assert policy.object_head.linear.weight.grad.abs().sum() > 0
+    assert all(p.grad is None for p in policy.net["unet"].parameters())  # not its business
+    # It regresses the observation steps' poses: the right ones everywhere but the masked
+    # step score 0, however wrong that step is.
+    norm = policy.object_head.normalizer
+    with torch.no_grad():
+        policy.object_head.linear.weight.zero_()
+        policy.object_head.linear.bias.copy_(-norm.mean / norm.std)
+    posed = torch.zeros_like(batch["obs"]["object_in_tcp"])
+    posed[0, 0] = 5.0
+    zero = {**batch, "obs": {**batch["obs"], "object_in_tcp": posed}}
+    assert float(policy.losses(zero)["aux"].detach()) == pytest.approx(0.0, abs=1e-6)
+    plain = build_policy(dp_config("dp_reltraj", obs_mode="image"), _stats(config, rng, batch))
+    assert "aux" not in plain.train().losses(batch) and plain.object_head is None
+
+
 def test_the_chunk_invariant_loss_stays_bounded_at_the_last_noise_level():
     """At the last level sqrt(a_t) is nearly 0: the clean chunk is clipped to [-1, 1] as the
     sampler clips it, or one such sample's L_invar (and its gradient) swamps the batch."""

@@ -233,13 +233,13 @@ def test_the_object_loss_trains_the_encoders_from_the_privileged_poses_and_nothi
                                            + 2.0 * value["aux"], rel=1e-5)
     losses["aux"].backward()
     assert policy.encoders["left_gray"].trunk[0].weight.grad.abs().sum() > 0
-    assert policy.object_head.weight.grad.abs().sum() > 0
+    assert policy.object_head.linear.weight.grad.abs().sum() > 0
     assert policy.rnn.weight_ih_l0.grad is None  # the LSTM and heads are not its business
     # It regresses the normalised poses: a head that outputs them exactly scores 0.
     with torch.no_grad():
-        policy.object_head.weight.zero_()
-        policy.object_head.bias.copy_(-policy.object_normalizer.mean
-                                      / policy.object_normalizer.std)
+        norm = policy.object_head.normalizer
+        policy.object_head.linear.weight.zero_()
+        policy.object_head.linear.bias.copy_(-norm.mean / norm.std)
     zero = {**batch, "obs": {**batch["obs"],
                              "object_in_tcp": torch.zeros_like(batch["obs"]["object_in_tcp"])}}
     assert float(policy.losses(zero)["aux"].detach()) == pytest.approx(0.0, abs=1e-6)
@@ -251,6 +251,26 @@ def test_the_object_loss_trains_the_encoders_from_the_privileged_poses_and_nothi
     assert "aux" not in plain.losses(batch) and plain.object_head is None
     with pytest.raises(ValueError, match="object_aux_weight"):
         plain.estimate_objects(batch["obs"])
+
+
+def test_the_object_head_loads_the_names_older_checkpoints_gave_it():
+    config = tiny_config(obs_mode="image", invariant_weight=0.0, object_aux_weight=1.0,
+                         ema=True)
+    policy = RecurrentGMMPolicy(config, _stats())
+    state = policy.state_dict()
+    legacy = {}
+    for key, value in state.items():  # the names before ObjectHead, in the policy and its EMA
+        for new, old in (("object_head.linear.", "object_head."),
+                         ("object_head.normalizer.", "object_normalizer.")):
+            key = key.replace(new, old)
+        legacy[key] = value + 1.0 if "object_head" in key else value
+    assert "ema.object_normalizer.std" in legacy and "object_head.weight" in legacy
+    loaded = RecurrentGMMPolicy(config, _stats())
+    loaded.load_state_dict(legacy)
+    torch.testing.assert_close(loaded.object_head.linear.weight,
+                               state["object_head.linear.weight"] + 1.0)
+    torch.testing.assert_close(loaded.ema.object_head.linear.bias,
+                               state["ema.object_head.linear.bias"] + 1.0)
 
 
 def test_normalizer_round_trip():

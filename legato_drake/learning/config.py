@@ -80,7 +80,7 @@ class LearningConfig:
     keeps them whole. The crop's play (resized size minus crop) is how far, in pixels, the
     training images shift: what the policy learns not to see."""
     object_aux_weight: float = 0.0
-    """Image mode, LEGATO and BC-RNN: the weight of an auxiliary loss, in training only, that
+    """Image mode, every family: the weight of an auxiliary loss, in training only, that
     regresses the objects' poses in the gripper's frame (``object_in_tcp``, normalised) from
     the image features by a linear head, so the encoder must find the objects in its views;
     0: none. The policy still sees only its images at rollout. A remedy to measure for an
@@ -250,10 +250,9 @@ class LearningConfig:
                      "invariant_weight", "invariant_snr_clip", "object_aux_weight"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
                 raise bad(name, f"must be a non-negative number, got {getattr(self, name)}")
-        if self.object_aux_weight > 0 and (self.obs_mode != "image"
-                                           or self.algo not in ("legato", "bc_rnn")):
-            raise bad("object_aux_weight", f"needs obs_mode image and algo legato or bc_rnn "
-                                           f"(got {self.obs_mode}, {self.algo}); 0 turns it off")
+        if self.object_aux_weight > 0 and self.obs_mode != "image":
+            raise bad("object_aux_weight", f"needs obs_mode image (got {self.obs_mode}); 0 "
+                                           f"turns it off")
         if self.history not in range(HISTORY + 1):
             raise bad("history", f"must be 0, 1 or {HISTORY} (pose-delta steps), got "
                                  f"{self.history!r}")

@@ -29,7 +29,10 @@ Two action representations (SPEC §8):
 With ``invariant_weight`` > 0 the appendix-B chunk loss is added: the DHB invariants of the
 demonstrated history followed by the clean chunk the network implies at that noise level
 (``x0 = (x_t - sqrt(1 - a_t) eps) / sqrt(a_t)``, differentiable, clipped to [-1, 1] as the
-sampler clips it) against those of the history followed by the demonstrated chunk.
+sampler clips it) against those of the history followed by the demonstrated chunk. With
+``object_aux_weight`` > 0 (image mode) the auxiliary object loss of the LEGATO image policy
+(``object_head.ObjectHead``) is added on the observation steps' image features, in training
+only.
 """
 
 from __future__ import annotations
@@ -60,6 +63,8 @@ from legato_drake.learning.config import LearningConfig
 from legato_drake.learning.encoders import ImageEncoder, encode_sequence
 from legato_drake.learning.family import PolicyFamily, Stats, update_average
 from legato_drake.learning.normalization import Normalizer
+from legato_drake.learning.object_head import TARGET_KEY as OBJECT_TARGET
+from legato_drake.learning.object_head import ObjectHead
 
 REPRESENTATIONS = {"dp_velocity": "velocity", "dp_reltraj": "reltraj"}
 """``algo`` -> the chunk's action representation."""
@@ -225,9 +230,13 @@ class _Conditioner(nn.Module):
                          + config.feature_dim * len(image_keys))
 
     def forward(self, obs: Mapping[str, torch.Tensor]) -> torch.Tensor:
+        return self.steps(obs).flatten(1)
+
+    def steps(self, obs: Mapping[str, torch.Tensor]) -> torch.Tensor:
+        """Each step's features (B, T_o, F), the image features first."""
         parts = [encode_sequence(self.encoders[k], obs[k]) for k in self.image_keys]
         parts += [self.normalizers[k](obs[k]) for k in self.low_dim_keys]
-        return torch.cat(parts, -1).flatten(1)
+        return torch.cat(parts, -1)
 
 
 class DiffusionPolicy(PolicyFamily):
@@ -268,6 +277,10 @@ class DiffusionPolicy(PolicyFamily):
                                  config.unet_dims, config.unet_kernel)
         self.net = nn.ModuleDict({"conditioner": conditioner, "unet": unet})
         self.ema = copy.deepcopy(self.net).requires_grad_(False)
+        self.object_head = None
+        if config.object_aux_weight > 0:
+            self.object_head = ObjectHead(config.feature_dim * len(image_keys), stats)
+            self.loss_terms = ("mse", "invar", "aux", "total")
         self.register_buffer("calls", torch.zeros((), dtype=torch.long))
         schedule = dict(num_train_timesteps=config.diffusion_steps,
                         beta_schedule="squaredcos_cap_v2", clip_sample=True,
@@ -330,7 +343,8 @@ class DiffusionPolicy(PolicyFamily):
         t = torch.randint(0, cfg.diffusion_steps, (len(x0),), generator=generator) \
             if levels is None else levels.to(torch.long).cpu()
         noisy = self.train_scheduler.add_noise(x0, noise, t)
-        predicted = net["unet"](noisy, t.to(x0.device), net["conditioner"](obs))
+        features = net["conditioner"].steps(obs)
+        predicted = net["unet"](noisy, t.to(x0.device), features.flatten(1))
         mse = (((predicted - noise) ** 2).mean(-1) * mask).sum() / mask.sum().clamp(min=1)
         if cfg.invariant_weight > 0:
             clean = self.clean_chunk(noisy, predicted, t)
@@ -345,7 +359,14 @@ class DiffusionPolicy(PolicyFamily):
             invar = invar.mean()
         else:
             invar = torch.zeros((), dtype=mse.dtype, device=mse.device)
-        return {"mse": mse, "invar": invar, "total": mse + cfg.invariant_weight * invar}
+        terms = {"mse": mse, "invar": invar}
+        total = mse + cfg.invariant_weight * invar
+        if self.object_head is not None:  # on the observation steps' image features
+            error = self.object_head.squared_error(features, obs[OBJECT_TARGET])
+            obs_mask = batch["pad_mask"][:, :To].to(error.dtype)
+            terms["aux"] = (error * obs_mask).sum() / obs_mask.sum().clamp(min=1)
+            total = total + cfg.object_aux_weight * terms["aux"]
+        return {**terms, "total": total}
 
     def clean_chunk(self, noisy: torch.Tensor, predicted: torch.Tensor, t: torch.Tensor
                     ) -> torch.Tensor:

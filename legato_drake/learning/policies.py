@@ -20,8 +20,8 @@ differentiable w.r.t. the means, so L_invar trains the heads, the LSTM and the e
 Rollout uses the same low-noise mode.
 
 With ``object_aux_weight`` > 0 (image mode), training adds that weight times the mean squared
-error of a linear head that regresses the normalised ``object_in_tcp`` from the image
-features (the ``aux`` term): privileged supervision that makes the encoder locate the objects.
+error of ``object_head.ObjectHead`` (the ``aux`` term), which regresses the objects' poses
+from the image features: privileged supervision that makes the encoder locate the objects.
 The head is not used at rollout.
 
 With ``ema`` the policy also holds ``ema``, a copy of itself whose weights are the moving
@@ -51,6 +51,8 @@ from legato_drake.learning.config import LearningConfig
 from legato_drake.learning.encoders import ImageEncoder, encode_sequence
 from legato_drake.learning.family import PolicyFamily, Stats, update_average
 from legato_drake.learning.normalization import Normalizer
+from legato_drake.learning.object_head import TARGET_KEY as OBJECT_TARGET
+from legato_drake.learning.object_head import ObjectHead, rename_legacy_keys
 
 Hidden = tuple[torch.Tensor, torch.Tensor]
 
@@ -133,13 +135,9 @@ class RecurrentGMMPolicy(PolicyFamily):
         self.grasp_head = nn.Linear(width, 2) if config.algo == "legato" else None
         self.object_head = None
         if config.object_aux_weight > 0:
-            if "object_in_tcp" not in stats:
-                raise ValueError("normalisation statistics lack object_in_tcp "
-                                 "(object_aux_weight needs it)")
-            target = np.asarray(stats["object_in_tcp"]["mean"])
-            self.object_normalizer = Normalizer(target, np.asarray(stats["object_in_tcp"]["std"]))
-            self.object_head = nn.Linear(config.feature_dim * len(self.image_keys), len(target))
+            self.object_head = ObjectHead(config.feature_dim * len(self.image_keys), stats)
             self.loss_terms = ("nll", "ce", "invar", "aux", "total")
+            self._register_load_state_dict_pre_hook(rename_legacy_keys)
         self.ema: RecurrentGMMPolicy | None = None
         if config.ema:  # registered last: the trained parameters keep their order
             self.ema = copy.deepcopy(self, {id(config): config}).requires_grad_(False)
@@ -255,16 +253,11 @@ class RecurrentGMMPolicy(PolicyFamily):
             invar = torch.zeros((), dtype=nll.dtype, device=nll.device)
         total = cfg.nll_weight * nll + cfg.grasp_weight * ce + cfg.invariant_weight * invar
         terms = {"nll": nll, "ce": ce, "invar": invar}
-        if self.object_head is not None:
-            error = self._object_head(features) - self.object_normalizer(obs["object_in_tcp"])
-            terms["aux"] = _masked_mean(error.pow(2).mean(-1), mask)
+        if self.object_head is not None:  # the image features lead ``features``
+            error = self.object_head.squared_error(features, obs[OBJECT_TARGET])
+            terms["aux"] = _masked_mean(error, mask)
             total = total + cfg.object_aux_weight * terms["aux"]
         return {**terms, "total": total}
-
-    def _object_head(self, features: torch.Tensor) -> torch.Tensor:
-        """The auxiliary head's normalised ``object_in_tcp`` from the LSTM's input features
-        (the image features lead them, ``features``)."""
-        return self.object_head(features[..., :self.object_head.in_features])
 
     @torch.no_grad()
     def estimate_objects(self, obs: Mapping[str, torch.Tensor]) -> torch.Tensor:
@@ -275,7 +268,7 @@ class RecurrentGMMPolicy(PolicyFamily):
             raise ValueError("this policy has no object head (object_aux_weight is 0)")
         if self.ema is not None:
             return self.ema.estimate_objects(obs)
-        return self.object_normalizer.inverse(self._object_head(self.features(obs)))
+        return self.object_head.estimate(self.features(obs))
 
     def initial_state(self) -> RecurrentState:
         return RecurrentState(0, None)
