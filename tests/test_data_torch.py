@@ -54,6 +54,23 @@ def test_uint8_images_without_padding_and_custom_keys(dataset):
                                   episodes[1].obs["right_gray"][:7, :, :, 0])
 
 
+@pytest.mark.parametrize("cache_images", [False, True])
+def test_a_window_can_hold_the_images_of_its_observed_steps_alone(dataset, cache_images):
+    path, episodes = dataset
+    full = DemoSequenceDataset(path, seq_length=5, split="all", cache_images=cache_images)
+    seen = DemoSequenceDataset(path, seq_length=5, split="all", cache_images=cache_images,
+                               image_steps=2)
+    for i in (0, 3, len(episodes[0]) - 1):  # the last starts at demo_0's final step: padded
+        a, b = full[i], seen[i]
+        for key in ("left_gray", "right_gray"):
+            assert b["obs"][key].shape == (2, 1, 16, 16)
+            torch.testing.assert_close(b["obs"][key], a["obs"][key][:2])
+        torch.testing.assert_close(b["obs"]["delta_positions"], a["obs"]["delta_positions"])
+        torch.testing.assert_close(b["actions"], a["actions"])
+    with pytest.raises(DatasetError, match="image_steps must be 1-5"):
+        DemoSequenceDataset(path, seq_length=5, split="all", image_steps=6)
+
+
 def test_splits_follow_the_masks_and_batch(dataset):
     path, _ = dataset
     train = DemoSequenceDataset(path, seq_length=3, split="train")

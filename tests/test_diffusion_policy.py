@@ -22,7 +22,7 @@ from legato_drake.learning.diffusion import (
     reltraj_to_deltas,
     training_chunks,
 )
-from legato_drake.learning.registry import build_policy
+from legato_drake.learning.registry import build_policy, observed_steps
 from legato_drake.learning.train import train
 from legato_drake.poses import apply_delta, pose_delta
 from tests.learning_helpers import synthetic_dataset, tiny_config
@@ -239,6 +239,21 @@ def test_a_diffusion_policy_trains_and_its_loss_goes_down(tmp_path):
     # the average weights moved away from the initial ones and differ from the last ones
     net, ema = ckpt.policy.net.state_dict(), ckpt.policy.ema.state_dict()
     assert any(not torch.equal(net[k], ema[k]) for k in net)
+
+
+def test_an_image_diffusion_policy_trains_on_the_images_of_its_observation_steps(tmp_path):
+    data = synthetic_dataset(tmp_path / "d.hdf5", demos=4, length=20)
+    config = dp_config("dp_reltraj", obs_mode="image", object_aux_weight=1.0, steps=30,
+                       batch_size=4, valid_every=10, checkpoint_every=10, image_resize=8)
+    assert observed_steps(config) == config.obs_horizon == 2
+    assert observed_steps(tiny_config(obs_mode="image")) == 5  # LEGATO: its whole window
+    train(config, data, tmp_path / "run", progress=False)
+    with open(tmp_path / "run" / "log.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 30 and {"mse", "aux", "valid_aux"} <= set(rows[0])
+    assert all(np.isfinite(float(r["total"])) for r in rows)
+    ckpt = load_checkpoint(tmp_path / "run" / "last.pt")
+    assert ckpt.policy.object_head is not None
 
 
 def test_rollout_is_deterministic_and_executes_part_of_each_chunk(tmp_path, abstract_plant):

@@ -66,13 +66,20 @@ def image_to_tensor(image: np.ndarray, dtype: str = "float") -> torch.Tensor:
 
 
 class DemoSequenceDataset(Dataset):
-    """Fixed-length sequences of (observations, actions) for training a policy."""
+    """Fixed-length sequences of (observations, actions) for training a policy. With
+    ``image_steps`` a window holds the images of its first ``image_steps`` steps alone: what a
+    policy that observes only those loads (Diffusion Policy's ``obs_horizon``; the rest of
+    its window is the chunk's actions)."""
 
     def __init__(self, path: str | Path, obs_keys: Sequence[str] = POLICY_OBS_KEYS,
                  seq_length: int = 20, split: str = "train", pad_seq_length: bool = True,
-                 image_dtype: str = "float", cache_images: bool = False):
+                 image_dtype: str = "float", cache_images: bool = False,
+                 image_steps: int | None = None):
         if seq_length < 1:
             raise DatasetError(f"seq_length must be at least 1, got {seq_length}")
+        if image_steps is not None and not 1 <= image_steps <= seq_length:
+            raise DatasetError(f"image_steps must be 1-{seq_length} (seq_length), got "
+                               f"{image_steps}")
         if split not in SPLITS:
             raise DatasetError(f"unknown split {split!r}; valid values: {', '.join(SPLITS)}")
         if image_dtype not in IMAGE_DTYPES:
@@ -83,6 +90,7 @@ class DemoSequenceDataset(Dataset):
         self.split = split
         self.pad_seq_length = pad_seq_length
         self.image_dtype = image_dtype
+        self.image_steps = seq_length if image_steps is None else image_steps
         self._image_keys = [k for k in self.obs_keys if k in IMAGE_KEYS]
         self._low_dim_keys = [k for k in self.obs_keys if k not in IMAGE_KEYS]
         self._file: h5py.File | None = None
@@ -166,9 +174,10 @@ class DemoSequenceDataset(Dataset):
         obs = {}
         for key in self._low_dim_keys:
             obs[key] = torch.from_numpy(arrays[f"obs/{key}"][start:stop][steps])
+        seen = steps[:self.image_steps]  # the images of the steps a policy observes
         for key in self._image_keys:
-            frames = self._images(name, key, start, stop)[steps]  # (L, H, W, 1)
-            obs[key] = image_to_tensor(frames, self.image_dtype)  # (L, 1, H, W)
+            frames = self._images(name, key, start, start + int(seen[-1]) + 1)[seen]
+            obs[key] = image_to_tensor(frames, self.image_dtype)  # (image_steps, 1, H, W)
         return {
             "obs": obs,
             "actions": torch.from_numpy(arrays["actions"][start:stop][steps]),

@@ -291,6 +291,12 @@ class DiffusionPolicy(PolicyFamily):
     # -- statistics and representations --------------------------------------------------
 
     @classmethod
+    def observed_steps(cls, config: LearningConfig) -> int:
+        """The ``obs_horizon`` steps a chunk is conditioned on; the rest of a training
+        window holds the chunk's actions."""
+        return config.obs_horizon
+
+    @classmethod
     def extra_stats(cls, config: LearningConfig, actions: list[np.ndarray],
                     planned: list[np.ndarray]) -> dict[str, dict[str, np.ndarray]]:
         """The range of the chunk representation: per dimension (velocity), or per chunk

@@ -45,6 +45,12 @@ class PolicyFamily(nn.Module, abc.ABC):
         self.config = config
 
     @classmethod
+    def observed_steps(cls, config: LearningConfig) -> int:
+        """How many leading steps of a training window (``seq_length`` long) the policy
+        observes: training loads images for those alone. By default all of them."""
+        return config.seq_length
+
+    @classmethod
     def extra_stats(cls, config: LearningConfig, actions: list[np.ndarray],
                     planned: list[np.ndarray]) -> dict[str, dict[str, np.ndarray]]:
         """Statistics the family needs beyond the observations' and actions' mean and std,

@@ -54,6 +54,14 @@ def extra_stats(config: LearningConfig, actions: list[np.ndarray],
         if compute is not None else {}
 
 
+def observed_steps(config: LearningConfig) -> int:
+    """The leading steps of a training window ``config.algo``'s family observes
+    (``PolicyFamily.observed_steps``; all ``seq_length`` for a builder without it)."""
+    check_algo(config.algo)
+    steps = getattr(FAMILIES[config.algo], "observed_steps", None)
+    return steps(config) if steps is not None else config.seq_length
+
+
 def build_policy(config: LearningConfig, stats: Stats) -> PolicyFamily:
     """The policy of ``config.algo``'s family, with freshly initialised weights."""
     check_algo(config.algo)

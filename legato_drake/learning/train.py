@@ -49,7 +49,12 @@ from legato_drake.learning.config import LearningConfig, config_from_dict, save_
 from legato_drake.learning.family import PolicyFamily
 from legato_drake.learning.hardware import cpu_model, native_bfloat16
 from legato_drake.learning.normalization import OBS_MIN_STD, compute_stats
-from legato_drake.learning.registry import build_policy, check_algo, extra_stats
+from legato_drake.learning.registry import (
+    build_policy,
+    check_algo,
+    extra_stats,
+    observed_steps,
+)
 from legato_drake.progress import progress_bar
 
 log = logging.getLogger(__name__)
@@ -250,11 +255,12 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
                     "the image trunk trains several times slower than in float32 here; "
                     "--set encoder_precision=float32 is faster", cpu_model())
     seed_everything(config.seed)
+    image_steps = observed_steps(config)
     dataset = DemoSequenceDataset(data, config.dataset_keys, config.seq_length, "train",
-                                  cache_images=config.cache_images)
+                                  cache_images=config.cache_images, image_steps=image_steps)
     try:
         valid = DemoSequenceDataset(data, config.dataset_keys, config.seq_length, "valid",
-                                    cache_images=config.cache_images)
+                                    cache_images=config.cache_images, image_steps=image_steps)
     except DatasetError:
         valid = None  # too few demos for a validation split
     if previous is not None:
