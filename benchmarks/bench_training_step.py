@@ -1,18 +1,23 @@
 """One training step: L_invar's share of it, and what the image levers buy.
 
-Times one optimizer step (forward, loss, backward, Adam) of a batch of 16 sequences x 20 steps
-for each config, once with ``invariant_weight`` 0 and once with the config's weight, on random
+Times one optimizer step (forward, loss, backward, Adam, the weight average where the family
+keeps one) of a batch of the config's own shape (``batch_size`` windows of ``seq_length``
+steps: 16 x 20 for LEGATO and BC-RNN, 64 x 17 for Diffusion Policy, whose windows hold images
+for their ``obs_horizon`` steps alone, as training loads them) for each config, once with
+``invariant_weight`` 0 and once with the config's weight (0.005 where it has none), on random
 observations (the time does not depend on the data), and prints the ratio. For the image
 configs it then times the step (without L_invar) at each image lever: the input size (the
 whole 128² view, a crop of it, ``image_crop``, or the whole view scaled down,
 ``image_resize``) and the trunk's precision (``encoder_precision``), and prints ms per step,
-images per second (2 cameras x 320 frames per step) and the speed-up over the uncropped
-float32 step. The paper config (ResNet-18 trunks) takes tens of seconds per step on a 2-core
-CPU: it runs with ``--configs legato_paper`` (and ``--device cuda`` where there is a GPU).
+images per second (2 cameras x the frames a step encodes) and the speed-up over the
+uncropped float32 step. The paper config (ResNet-18 trunks) takes tens of seconds per step on
+a 2-core CPU: it runs with ``--configs legato_paper`` (and ``--device cuda`` where there is a
+GPU).
 Usage:
 
     python benchmarks/bench_training_step.py [--steps 20] [--threads 1] [--device cpu]
         [--configs legato_small_state,legato_small_image] [--json FILE]
+    python benchmarks/bench_training_step.py --configs dp_reltraj_state,dp_reltraj_image
 """
 
 from __future__ import annotations
@@ -27,48 +32,54 @@ import numpy as np
 import torch
 
 from legato_drake.data.derived import observation_sizes
-from legato_drake.data.layout import HISTORY_KEYS
+from legato_drake.data.layout import HISTORY_KEYS, IMAGE_KEYS
 from legato_drake.learning.config import load_config
 from legato_drake.learning.hardware import cpu_model, native_bfloat16
-from legato_drake.learning.policies import IMAGE_KEYS, RecurrentGMMPolicy
+from legato_drake.learning.registry import build_policy, extra_stats, observed_steps
 from legato_drake.summary import format_table
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 DIMS = observation_sizes(3)  # the lid scene's stove, pot and lid
-BATCH, SEQUENCE = 16, 20
 
 
-def random_batch(keys: list[str], device: str) -> dict:
-    """A batch of raw observations and actions shaped like ``DemoSequenceDataset``'s."""
+def random_batch(config, device: str) -> dict:
+    """A batch of raw observations and actions shaped like ``DemoSequenceDataset``'s in
+    training: ``batch_size`` windows of ``seq_length`` steps, images for the steps the family
+    observes."""
     gen = torch.Generator().manual_seed(0)
+    B, T = config.batch_size, config.seq_length
+    # L_invar reads the commanded pose deltas whether or not the policy observes them.
+    keys = list(dict.fromkeys([*config.dataset_keys, *HISTORY_KEYS]))
     obs = {}
     for key in keys:
         if key in IMAGE_KEYS:
-            obs[key] = torch.rand(BATCH, SEQUENCE, 1, 128, 128, generator=gen)
+            obs[key] = torch.rand(B, observed_steps(config), 1, 128, 128, generator=gen)
         else:
-            obs[key] = 0.01 * torch.randn(BATCH, SEQUENCE, DIMS[key], generator=gen)
-    actions = 0.01 * torch.randn(BATCH, SEQUENCE, 7, generator=gen)
+            obs[key] = 0.01 * torch.randn(B, T, DIMS[key], generator=gen)
+    actions = 0.01 * torch.randn(B, T, 7, generator=gen)
     actions[..., 6] = (actions[..., 6] > 0).float()
     return {"obs": {k: v.to(device) for k, v in obs.items()}, "actions": actions.to(device),
-            "pad_mask": torch.ones(BATCH, SEQUENCE, dtype=torch.bool, device=device)}
+            "planned_actions": actions.clone().to(device),
+            "pad_mask": torch.ones(B, T, dtype=torch.bool, device=device)}
 
 
 def time_steps(config, steps: int, device: str) -> float:
     """Median seconds per optimizer step of ``config`` (after two warm-up steps)."""
     stats = {k: {"mean": np.zeros(d, np.float32), "std": np.ones(d, np.float32)}
              for k, d in DIMS.items()}
+    batch = random_batch(config, device)
+    stats.update(extra_stats(config, list(batch["actions"].cpu().numpy())))
     torch.manual_seed(0)
-    policy = RecurrentGMMPolicy(config, stats).to(device)
+    policy = build_policy(config, stats).to(device)
     optimizer = torch.optim.Adam(policy.parameters(), lr=config.lr)
-    # L_invar reads the commanded pose deltas whether or not the policy observes them.
-    batch = random_batch(list(dict.fromkeys([*config.dataset_keys, *HISTORY_KEYS])), device)
     times = []
-    for _ in range(steps + 2):
+    for step in range(steps + 2):
         start = time.perf_counter()
         loss = policy.losses(batch)["total"]
         optimizer.zero_grad(set_to_none=True)
         loss.backward()
         optimizer.step()
+        policy.after_step(step + 1)
         if device.startswith("cuda"):
             torch.cuda.synchronize()
         times.append(time.perf_counter() - start)
@@ -99,8 +110,8 @@ def main() -> None:
                              args.device)
         with_invar = time_steps(dataclasses.replace(config, invariant_weight=weight),
                                 args.steps, args.device)
-        rows.append([name, 1e3 * without, 1e3 * with_invar,
-                     100.0 * (with_invar - without) / without])
+        rows.append([f"{name} ({config.batch_size} x {config.seq_length})", 1e3 * without,
+                     1e3 * with_invar, 100.0 * (with_invar - without) / without])
         records.append(dict(config=name, ms_without_invar=1e3 * without,
                             ms_with_invar=1e3 * with_invar))
         if config.obs_mode != "image":
@@ -111,7 +122,7 @@ def main() -> None:
                 config, invariant_weight=0.0, image_resize=resize, image_crop=crop,
                 encoder_precision=precision), args.steps, args.device)
             base = base or seconds
-            images = 2 * BATCH * SEQUENCE / seconds
+            images = 2 * config.batch_size * observed_steps(config) / seconds
             size = ("scaled to " if resize else "crop " if crop else "whole ") + \
                 str(resize or crop or 128)
             levers.append([name, size, precision, 1e3 * seconds, images,
@@ -121,7 +132,7 @@ def main() -> None:
                                 images_per_s=images))
     native, cpu = native_bfloat16(), cpu_model()
     said = "unknown" if native is None else "yes" if native else "no"
-    print(f"batch {BATCH} x {SEQUENCE} steps, {args.device}, torch {torch.__version__}, "
+    print(f"each config's batch, {args.device}, torch {torch.__version__}, "
           f"{args.threads} thread(s), median of {args.steps} steps; {cpu}, native bfloat16: "
           f"{said}")
     print(format_table(["config", "ms/step without L_invar", "ms/step with L_invar",
