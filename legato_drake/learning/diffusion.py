@@ -63,7 +63,6 @@ from legato_drake.learning.config import LearningConfig
 from legato_drake.learning.encoders import ImageEncoder, encode_sequence
 from legato_drake.learning.family import PolicyFamily, Stats, update_average
 from legato_drake.learning.normalization import Normalizer
-from legato_drake.learning.object_head import TARGET_KEY as OBJECT_TARGET
 from legato_drake.learning.object_head import ObjectHead
 
 REPRESENTATIONS = {"dp_velocity": "velocity", "dp_reltraj": "reltraj"}
@@ -368,9 +367,7 @@ class DiffusionPolicy(PolicyFamily):
         terms = {"mse": mse, "invar": invar}
         total = mse + cfg.invariant_weight * invar
         if self.object_head is not None:  # on the observation steps' image features
-            error = self.object_head.squared_error(features, obs[OBJECT_TARGET])
-            obs_mask = batch["pad_mask"][:, :To].to(error.dtype)
-            terms["aux"] = (error * obs_mask).sum() / obs_mask.sum().clamp(min=1)
+            terms["aux"] = self.object_head.loss(features, obs, batch["pad_mask"][:, :To])
             total = total + cfg.object_aux_weight * terms["aux"]
         return {**terms, "total": total}
 

@@ -10,6 +10,8 @@ sees only its images. Every policy family with image encoders uses this one head
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 import torch
 from torch import nn
@@ -37,10 +39,14 @@ class ObjectHead(nn.Module):
         """The normalised estimate from image features (their first ``F`` columns)."""
         return self.linear(features[..., :self.linear.in_features])
 
-    def squared_error(self, features: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-        """Per step (...): the mean over the pose values of the squared error of the
-        normalised estimate against the raw ``target`` (..., 9k), normalised here."""
-        return (self(features) - self.normalizer(target)).pow(2).mean(-1)
+    def loss(self, features: torch.Tensor, obs: Mapping[str, torch.Tensor],
+             mask: torch.Tensor) -> torch.Tensor:
+        """The ``aux`` term: the squared error of the normalised estimate from ``features``
+        (B, T, F) against the observed ``object_in_tcp`` (B, T, 9k), averaged over the pose
+        values and the steps ``mask`` (B, T) keeps."""
+        error = (self(features) - self.normalizer(obs[TARGET_KEY])).pow(2).mean(-1)
+        mask = mask.to(error.dtype)
+        return (error * mask).sum() / mask.sum().clamp(min=1.0)
 
     def estimate(self, features: torch.Tensor) -> torch.Tensor:
         """The estimate in raw units (m and the rotation matrix's columns)."""

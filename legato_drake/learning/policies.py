@@ -51,7 +51,6 @@ from legato_drake.learning.config import LearningConfig
 from legato_drake.learning.encoders import ImageEncoder, encode_sequence
 from legato_drake.learning.family import PolicyFamily, Stats, update_average
 from legato_drake.learning.normalization import Normalizer
-from legato_drake.learning.object_head import TARGET_KEY as OBJECT_TARGET
 from legato_drake.learning.object_head import ObjectHead, rename_legacy_keys
 
 Hidden = tuple[torch.Tensor, torch.Tensor]
@@ -254,8 +253,7 @@ class RecurrentGMMPolicy(PolicyFamily):
         total = cfg.nll_weight * nll + cfg.grasp_weight * ce + cfg.invariant_weight * invar
         terms = {"nll": nll, "ce": ce, "invar": invar}
         if self.object_head is not None:  # the image features lead ``features``
-            error = self.object_head.squared_error(features, obs[OBJECT_TARGET])
-            terms["aux"] = _masked_mean(error, mask)
+            terms["aux"] = self.object_head.loss(features, obs, mask)
             total = total + cfg.object_aux_weight * terms["aux"]
         return {**terms, "total": total}
 
