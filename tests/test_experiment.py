@@ -275,18 +275,19 @@ def test_training_keys_leave_out_the_rollout_fields_alone(tmp_path):
 
 def test_fields_added_at_a_neutral_value_keep_the_keys_of_older_runs(tmp_path):
     """A run recorded before L_invar's turn resolution, Min-SNR weighting, image resizing,
-    the object loss, the learning-rate schedule, the LSTM's rollout memory and the recurrent
-    families' weight average existed keeps its keys for a config that sets them to what the
-    code did before; other values get new keys (a rollout field's only where the trials are
-    keyed: the training is shared)."""
+    the object loss, the learning-rate schedule, the LSTM's rollout memory, the recurrent
+    families' weight average and the batch order's own seed existed keeps its keys for a
+    config that sets them to what the code did before; other values get new keys (a rollout
+    field's only where the trials are keyed: the training is shared)."""
     config = tiny_config()
     older = {k: v for k, v in config.to_dict().items()
              if k not in ("invariant_turn_eps", "invariant_snr_clip", "image_resize",
-                          "object_aux_weight", "lr_schedule", "rnn_memory", "ema")}
+                          "object_aux_weight", "lr_schedule", "rnn_memory", "ema",
+                          "batch_seed")}
     neutral = dataclasses.replace(config, invariant_turn_eps=config.invariant_eps,
                                   invariant_snr_clip=0.0, image_resize=0,
                                   object_aux_weight=0.0, lr_schedule="constant",
-                                  rnn_memory="reset", ema=False)
+                                  rnn_memory="reset", ema=False, batch_seed=None)
     assert key_fields(neutral) == older
     assert training_key("d.hdf5", neutral) == training_key("d.hdf5", older)
     window = dataclasses.replace(neutral, rnn_memory="window")
@@ -298,6 +299,7 @@ def test_fields_added_at_a_neutral_value_keep_the_keys_of_older_runs(tmp_path):
                     dataclasses.replace(neutral, object_aux_weight=1.0),
                     dataclasses.replace(neutral, lr_schedule="cosine"),
                     dataclasses.replace(neutral, ema=True),
+                    dataclasses.replace(neutral, batch_seed=0),
                     dataclasses.replace(neutral, invariant_eps=0.005)):
         assert training_key("d.hdf5", changed) != training_key("d.hdf5", older)
     (tmp_path / "runs" / "older").mkdir(parents=True)

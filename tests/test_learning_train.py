@@ -85,6 +85,14 @@ def test_config_errors_name_the_field_and_the_file(tmp_path):
     assert apply_overrides(tiny_config(), ["lr=1e-4"]).lr == 1e-4  # YAML 1.1's string
     with pytest.raises(ConfigError, match="lr in --set must be a number"):
         apply_overrides(tiny_config(), ["lr=fast"])
+    assert apply_overrides(tiny_config(), ["batch_seed=3"]).batch_seed == 3
+    assert apply_overrides(tiny_config(batch_seed=3), ["batch_seed=null"]).batch_seed is None
+    with pytest.raises(ConfigError, match="batch_seed in --set must be an integer or null"):
+        apply_overrides(tiny_config(), ["batch_seed=first"])
+    with pytest.raises(ConfigError, match="batch_seed in --set must be a non-negative"):
+        apply_overrides(tiny_config(), ["batch_seed=-1"])
+    with pytest.raises(ConfigError, match="seed in --set must be an integer, got None"):
+        apply_overrides(tiny_config(), ["seed=null"])
     save_config(tiny_config(), tmp_path / "round.yaml")
     assert load_config(tmp_path / "round.yaml") == tiny_config()
 
@@ -120,6 +128,25 @@ def test_training_is_seeded_logged_and_checkpointed(tmp_path, data):
         torch.testing.assert_close(ckpt.policy.state_dict()[name], tensor)
     assert (tmp_path / "a" / "best.pt").is_file()
     assert load_config(tmp_path / "a" / "config.yaml") == config
+
+
+def test_the_batch_order_can_have_a_seed_of_its_own(tmp_path, data):
+    """``batch_seed`` moves the batches and leaves the initial weights: a run with the
+    default's value is the default's run, bit for bit; another value takes other steps from
+    the same weights (Adam's first step moves no weight by more than the learning rate, so
+    after one step two runs from the same weights are within twice that)."""
+    def run(name: str, steps: int | None = None, **seeds) -> Path:
+        train(tiny_config(**seeds), data, tmp_path / name, steps=steps, progress=False)
+        return tmp_path / name
+
+    default, same, other = run("a"), run("b", batch_seed=0), run("c", batch_seed=1)
+    assert _losses(same) == _losses(default)
+    assert _losses(other)[0] != _losses(default)[0]
+    a, c, d = (load_checkpoint(run(f"{name}1", 1, **seeds) / "last.pt").policy.state_dict()
+               for name, seeds in (("a", {}), ("c", {"batch_seed": 1}), ("d", {"seed": 1})))
+    lr = tiny_config().lr
+    assert max(float((a[k] - c[k]).abs().max()) for k in a) <= 2 * lr * 1.001
+    assert max(float((a[k] - d[k]).abs().max()) for k in a) > 10 * lr
 
 
 def test_a_checkpoint_remembers_every_scene_it_was_chosen_on(tmp_path, data):

@@ -176,6 +176,12 @@ class LearningConfig:
     """Steps between kept snapshots ``step_<N>.pt`` (0: none), the candidates that
     ``legato-drake select`` rolls out on validation scene seeds."""
     seed: int = 0
+    """Seeds the initial weights and, unless ``batch_seed`` is set, the batch order."""
+    batch_seed: int | None = None
+    """Seeds the batch order alone (which demo windows each step draws; None: ``seed``), so
+    that trainings can share their initial weights and differ in their batches, or the
+    reverse. Every other random number of a training (initial weights, noise) stays
+    ``seed``'s."""
     num_workers: int = 0
     """DataLoader worker processes."""
     cpu_threads: int = 1
@@ -261,10 +267,15 @@ class LearningConfig:
                                        f"{self.history_noise}")
         if not (math.isfinite(self.history_dropout) and 0 <= self.history_dropout <= 1):
             raise bad("history_dropout", f"must be in [0, 1], got {self.history_dropout}")
-        for name in ("num_workers", "seed", "cpu_threads", "snapshot_every"):
-            if getattr(self, name) < 0:
+        for name in ("num_workers", "seed", "cpu_threads", "snapshot_every", "batch_seed"):
+            if (getattr(self, name) or 0) < 0:
                 raise bad(name, f"must be a non-negative integer, got {getattr(self, name)}")
         return self
+
+    @property
+    def batch_order_seed(self) -> int:
+        """The seed of the training's batch order: ``batch_seed``, or ``seed`` without it."""
+        return self.seed if self.batch_seed is None else self.batch_seed
 
     @property
     def obs_keys(self) -> tuple[str, ...]:
@@ -296,13 +307,14 @@ NEUTRAL_VALUES = {
     "lr_schedule": lambda fields: fields["lr_schedule"] == "constant",
     "rnn_memory": lambda fields: fields["rnn_memory"] == "reset",
     "ema": lambda fields: not fields["ema"],
+    "batch_seed": lambda fields: fields["batch_seed"] is None,
 }
 """Fields added after experiments had keyed their results on whole configs, each with a test
 for the values at which it does what the code did before it existed (L_invar's turn
 resolution was its motion resolution; every noise level weighed alike; images kept at 128 x
 128; no auxiliary object loss; a constant learning rate; the LSTM reset at rollout; no weight
-average for the recurrent families). At those values ``key_fields`` leaves the field out, so
-those results keep their keys."""
+average for the recurrent families; the batch order seeded by ``seed``). At those values
+``key_fields`` leaves the field out, so those results keep their keys."""
 
 
 def key_fields(config: LearningConfig | dict) -> dict:
@@ -331,9 +343,12 @@ def _coerce(name: str, value: object, where: str) -> object:
     if kind is bool:
         if not isinstance(value, bool):
             raise ConfigError(f"{name}{place} must be true or false, got {value!r}")
-    elif kind is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{name}{place} must be an integer, got {value!r}")
+    elif kind is int or kind == int | None:
+        optional = kind is not int
+        if (value is None and not optional) or isinstance(value, bool) \
+                or not isinstance(value, int | None):
+            raise ConfigError(f"{name}{place} must be an integer{' or null' * optional}, got "
+                              f"{value!r}")
     elif kind is float:
         if isinstance(value, str):  # YAML 1.1 reads 1e-4 (no dot) as a string
             with contextlib.suppress(ValueError):

@@ -286,8 +286,8 @@ def train(config: LearningConfig, data: str | Path, out: str | Path, steps: int 
     _write_log(log_path, _read_log(log_path, ckpt.step), columns)
     rows: list[dict] = []  # not yet in the log file
     board = _tensorboard(out)
-    sampler = StepBatchSampler(len(dataset), config.batch_size, config.seed, ckpt.step,
-                               total_steps)
+    sampler = StepBatchSampler(len(dataset), config.batch_size, config.batch_order_seed,
+                               ckpt.step, total_steps)
     loader = DataLoader(dataset, batch_sampler=sampler, num_workers=config.num_workers,
                         persistent_workers=False, pin_memory=device.startswith("cuda"))
     bar = progress_bar(progress=progress, total=total_steps, initial=ckpt.step,
