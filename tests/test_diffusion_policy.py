@@ -256,6 +256,32 @@ def test_an_image_diffusion_policy_trains_on_the_images_of_its_observation_steps
     assert ckpt.policy.object_head is not None
 
 
+@pytest.mark.slow
+def test_an_image_diffusion_policy_drives_the_diagram_from_the_cameras(tmp_path):
+    """Evaluation of an image chunk policy: the diagram turns its cameras into the window of
+    observed images, and the policy plans a chunk from them (a new one every
+    ``action_horizon`` steps)."""
+    from legato_drake.diagram import build_diagram
+    from legato_drake.episode import simulate
+    from legato_drake.scenario import Scenario
+
+    data = synthetic_dataset(tmp_path / "d.hdf5", demos=4, length=20)
+    config = dp_config("dp_reltraj", obs_mode="image", object_aux_weight=1.0, steps=2,
+                       batch_size=4, image_resize=8)
+    train(config, data, tmp_path / "run", progress=False)
+    scenario = Scenario(embodiment="abstract", controller="policy", duration=0.45,
+                        checkpoint=str(tmp_path / "run" / "last.pt"))
+    scenario.camera.width = scenario.camera.height = 32
+    built = build_diagram(scenario.validate())
+    simulator, result = simulate(built)
+    state = built.controller.policy_state(built.controller.GetMyContextFromRoot(
+        simulator.get_context()))
+    assert state.step == 5 and state.policy.decisions == 2  # steps 0-2, then 3-5
+    assert len(state.policy.window) == config.obs_horizon
+    assert state.policy.window[-1]["left_gray"].shape[-2:] == (32, 32)
+    assert result.episode_time == pytest.approx(0.45, abs=0.01)
+
+
 def test_rollout_is_deterministic_and_executes_part_of_each_chunk(tmp_path, abstract_plant):
     from pydrake.systems.analysis import Simulator
 
