@@ -1,12 +1,13 @@
 """Policy inference time per 10 Hz step on the CPU (one torch thread, as in evaluation).
 
 Times the ``PolicyController``'s whole update (observation, network, rollout state) for the
-small state config, the small image config, the paper config and the Diffusion Policy state
-configs (untrained weights: the time does not depend on them), median, p95 and max over
---steps steps. A Diffusion Policy samples a chunk every ``action_horizon`` steps (DDIM,
-``inference_steps``) and only reads its observation in between, so its max is the re-plan.
-The bars: 20 ms per step for the small recurrent configs, 30 ms per re-plan for the Diffusion
-Policy state configs. Usage:
+small state config, the small image config, the paper config, the Diffusion Policy state
+configs and the image Diffusion Policy (untrained weights: the time does not depend on them),
+median, p95 and max over --steps steps. A Diffusion Policy samples a chunk every
+``action_horizon`` steps (DDIM, ``inference_steps``) and only reads its observation in
+between, so its max is the re-plan. The bars (issue 15 and the policies issue): 20 ms per step
+for the small recurrent configs, 30 ms per re-plan for the Diffusion Policy state configs; the
+image Diffusion Policy has none (its re-plan must fit the 100 ms of a policy step). Usage:
 
     python benchmarks/bench_policy.py [--steps 100] [--threads 1] [--json FILE]
 """
@@ -75,7 +76,8 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=100)
     parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--configs", default="legato_small_state,legato_small_image,"
-                                             "legato_paper,dp_velocity_state,dp_reltraj_state")
+                                             "legato_paper,dp_velocity_state,dp_reltraj_state,"
+                                             "dp_reltraj_image")
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the rows there")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
@@ -83,14 +85,18 @@ def main() -> None:
     for name in args.configs.split(","):
         times = 1e3 * np.array(time_controller(name, args.steps))
         chunked = name.startswith("dp_")
-        worst, bar = float(times.max()), 30.0 if chunked else 20.0
+        worst = float(times.max())
+        bar = None if chunked and "image" in name else 30.0 if chunked else 20.0
         rows.append(dict(config=name, median_ms=float(np.median(times)),
                          p95_ms=float(np.percentile(times, 95)), max_ms=worst, bar_ms=bar,
-                         meets_bar=bool((worst if chunked else np.median(times)) <= bar)))
+                         meets_bar=None if bar is None else
+                         bool((worst if chunked else np.median(times)) <= bar)))
     print(format_table(["config", "median ms/step", "p95 ms/step", "max ms/step",
                         "bar ms", "meets bar"],
-                       [[r["config"], r["median_ms"], r["p95_ms"], r["max_ms"], r["bar_ms"],
-                         "yes" if r["meets_bar"] else "no"] for r in rows]))
+                       [[r["config"], r["median_ms"], r["p95_ms"], r["max_ms"],
+                         "-" if r["bar_ms"] is None else r["bar_ms"],
+                         {None: "-", True: "yes", False: "no"}[r["meets_bar"]]]
+                        for r in rows]))
     if args.json is not None:
         args.json.write_text(json.dumps(dict(threads=args.threads, rows=rows), indent=1))
 
