@@ -1,6 +1,7 @@
 """How well a Diffusion Policy checkpoint fits its demonstrations, open loop.
 
     python scripts/chunk_fit.py RUN/step_020000.pt DATA.hdf5 [--split valid] [--windows 300]
+                                [--phases]
 
 For ``--windows`` random windows of the demos in ``--split`` (seeded), the policy samples a
 chunk from the window's first ``obs_horizon`` observations, as it would at rollout. Over the
@@ -15,6 +16,13 @@ executed part of the chunk (``action_horizon`` steps, or ``--steps``) the script
 * how often the grasp commands agree (all windows, and the windows where the demonstration
   switches its grasp).
 
+For an image checkpoint trained with the object loss (``object_aux_weight``), the script also
+prints how far the objects' positions that its head reads from the latest observed frames
+(through the rollout's EMA encoders) are from the true ones, per object body: whether the
+encoder locates what the policy must reach. ``--phases`` breaks the gripper error and the
+objects' down by where the window's latest observation lies relative to the demo's first
+grasp command (``legato_fit.py``'s phases).
+
 A policy that does not fit its training split is under-trained or under-informed; one that
 fits but fails in closed loop is not.
 """
@@ -22,11 +30,15 @@ fits but fails in closed loop is not.
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
+import h5py
 import numpy as np
 import torch
+from legato_fit import PHASES, grasp_steps
 
+from legato_drake.data.derived import VALUES_PER_BODY
 from legato_drake.data.torch_dataset import SPLITS, DemoSequenceDataset
 from legato_drake.learning.checkpoint import load_checkpoint
 from legato_drake.learning.diffusion import (
@@ -45,6 +57,8 @@ def main() -> None:
     parser.add_argument("--windows", type=int, default=300, help="windows sampled (300)")
     parser.add_argument("--steps", type=int, default=None,
                         help="chunk steps compared (default: the config's action_horizon)")
+    parser.add_argument("--phases", action="store_true",
+                        help="the errors by phase, relative to the demo's first grasp command")
     args = parser.parse_args()
     torch.set_num_threads(1)
     ckpt = load_checkpoint(args.checkpoint)
@@ -55,9 +69,14 @@ def main() -> None:
     To, steps = cfg.obs_horizon, args.steps or cfg.action_horizon
     if not 1 <= steps <= cfg.pred_horizon:
         parser.error(f"--steps must be 1-{cfg.pred_horizon}, got {steps}")
-    data = DemoSequenceDataset(args.data, cfg.obs_keys, cfg.seq_length, args.split)
+    located = policy.object_head is not None
+    keys = (*cfg.obs_keys, *(("object_in_tcp",) if located else ()))
+    data = DemoSequenceDataset(args.data, keys, cfg.seq_length, args.split, image_steps=To)
     picks = np.random.default_rng(0).permutation(len(data))[:args.windows]
     errors, moves, drifts, agree, agree_at_switch = [], [], [], [], []
+    misplaced: list[np.ndarray] = []  # per window, each body's position error (mm)
+    closes = grasp_steps(args.data, data.demos) if args.phases else {}
+    from_grasp: list[int] = []  # per window, its latest observation relative to the grasp
     for n, i in enumerate(picks):
         item = data[int(i)]
         if not item["pad_mask"][To - 1:To - 1 + steps].all():
@@ -81,6 +100,15 @@ def main() -> None:
         grasps = torch.cat([item["actions"][To - 2:To - 1, 6].double(), shown[:, 6]])
         if To >= 2 and bool((grasps.diff() != 0).any()):
             agree_at_switch.append(same)
+        if closes:
+            name, start = data.window(int(i))
+            from_grasp.append(start + To - 1 - closes[name])
+        if located:
+            latest_obs = {k: item["obs"][k][None, To - 1:To] for k in keys}
+            error = (policy.estimate_objects(latest_obs)[0, 0]
+                     - latest_obs["object_in_tcp"][0, 0]).double().numpy()
+            misplaced.append(1000 * np.linalg.norm(
+                error.reshape(-1, VALUES_PER_BODY["object_in_tcp"])[:, :3], axis=-1))
     at_switch = (f"{np.mean(agree_at_switch):.3f} (n = {len(agree_at_switch)})"
                  if agree_at_switch else "no window switches")
     print(f"{args.checkpoint} on the {args.split} demos, {len(errors)} windows, "
@@ -90,6 +118,29 @@ def main() -> None:
           f"(the demonstrations move {np.median(moves):.1f} mm, median; their recorded "
           f"actions composed end {np.median(drifts):.1f} mm from the plan, median)\n"
           f"  grasp agreement {np.mean(agree):.3f}; where the demo switches: {at_switch}")
+    located_mm = np.array(misplaced) if misplaced else None
+    if located_mm is not None:
+        with h5py.File(args.data, "r") as f:
+            names = json.loads(f[f"data/{data.demos[0]}"].attrs["object_bodies"])
+        for body, name in enumerate(names):
+            print(f"  the {name} located from the latest frames: position error median "
+                  f"{np.median(located_mm[:, body]):.1f} mm, 90th percentile "
+                  f"{np.percentile(located_mm[:, body], 90):.1f} mm")
+    if from_grasp:
+        where, errors_mm = np.array(from_grasp), np.array(errors)
+        print("  by phase (the latest observation's steps from the demo's first grasp "
+              "command):")
+        for low, high, label in PHASES:
+            here = (where >= low) & (where < high)
+            if not here.any():
+                continue
+            line = (f"    {label}: {here.sum()} windows, gripper error median "
+                    f"{np.median(errors_mm[here]):.1f} mm")
+            if located_mm is not None:
+                line += ", objects located to " + ", ".join(
+                    f"{np.median(located_mm[here, body]):.1f}"
+                    for body in range(located_mm.shape[1])) + " mm (median, in the order above)"
+            print(line)
 
 
 if __name__ == "__main__":

@@ -172,8 +172,15 @@ def test_the_object_loss_of_an_image_diffusion_policy_trains_its_encoders_alone(
     posed[0, 0] = 5.0
     zero = {**batch, "obs": {**batch["obs"], "object_in_tcp": posed}}
     assert float(policy.losses(zero)["aux"].detach()) == pytest.approx(0.0, abs=1e-6)
+    # The diagnostic estimate reads the rollout's (EMA) encoders, in raw units: the head set
+    # to answer the normalised zero pose answers zero.
+    estimate = policy.estimate_objects(batch["obs"])
+    assert estimate.shape == batch["obs"]["object_in_tcp"].shape
+    torch.testing.assert_close(estimate, torch.zeros_like(estimate), atol=1e-6, rtol=0)
     plain = build_policy(dp_config("dp_reltraj", obs_mode="image"), _stats(config, rng, batch))
     assert "aux" not in plain.train().losses(batch) and plain.object_head is None
+    with pytest.raises(ValueError, match="no object head"):
+        plain.estimate_objects(batch["obs"])
 
 
 def test_the_chunk_invariant_loss_stays_bounded_at_the_last_noise_level():

@@ -392,6 +392,16 @@ class DiffusionPolicy(PolicyFamily):
         update_average(self.ema, self.net.parameters(), self.net.buffers(), step,
                        self.config.ema_decay)
 
+    @torch.no_grad()
+    def estimate_objects(self, obs: Mapping[str, torch.Tensor]) -> torch.Tensor:
+        """What the object head reads from the rollout's (EMA) image features of raw
+        observations (B, T, ...): ``object_in_tcp`` (B, T, 9k) in raw units, for diagnostics
+        (``scripts/chunk_fit.py``); the policy never acts on it. Needs ``object_aux_weight``
+        > 0."""
+        if self.object_head is None:
+            raise ValueError("this policy has no object head (object_aux_weight is 0)")
+        return self.object_head.estimate(self.ema["conditioner"].steps(obs))
+
     def rollout_state_dict(self) -> dict[str, torch.Tensor]:
         """Without the trained weights ``net``: a rollout runs the EMA copy alone, so a
         shipped checkpoint is half the size."""
