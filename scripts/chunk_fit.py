@@ -30,13 +30,14 @@ fits but fails in closed loop is not.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
-import h5py
 import numpy as np
 import torch
-from legato_fit import PHASES, grasp_steps
+
+# The sibling script (this one runs as ``python scripts/chunk_fit.py``, so scripts/ is on the
+# path): its demo phases and its report of where an encoder locates the objects.
+from legato_fit import grasp_steps, located_in, phases, print_located
 
 from legato_drake.data.derived import VALUES_PER_BODY
 from legato_drake.data.torch_dataset import SPLITS, DemoSequenceDataset
@@ -70,7 +71,7 @@ def main() -> None:
     if not 1 <= steps <= cfg.pred_horizon:
         parser.error(f"--steps must be 1-{cfg.pred_horizon}, got {steps}")
     located = policy.object_head is not None
-    keys = (*cfg.obs_keys, *(("object_in_tcp",) if located else ()))
+    keys = cfg.dataset_keys  # with object_in_tcp where the policy has an object head
     data = DemoSequenceDataset(args.data, keys, cfg.seq_length, args.split, image_steps=To)
     picks = np.random.default_rng(0).permutation(len(data))[:args.windows]
     errors, moves, drifts, agree, agree_at_switch = [], [], [], [], []
@@ -120,27 +121,15 @@ def main() -> None:
           f"  grasp agreement {np.mean(agree):.3f}; where the demo switches: {at_switch}")
     located_mm = np.array(misplaced) if misplaced else None
     if located_mm is not None:
-        with h5py.File(args.data, "r") as f:
-            names = json.loads(f[f"data/{data.demos[0]}"].attrs["object_bodies"])
-        for body, name in enumerate(names):
-            print(f"  the {name} located from the latest frames: position error median "
-                  f"{np.median(located_mm[:, body]):.1f} mm, 90th percentile "
-                  f"{np.percentile(located_mm[:, body], 90):.1f} mm")
+        print_located(args.data, data.demos[0], located_mm, "the latest frames")
     if from_grasp:
         where, errors_mm = np.array(from_grasp), np.array(errors)
         print("  by phase (the latest observation's steps from the demo's first grasp "
               "command):")
-        for low, high, label in PHASES:
-            here = (where >= low) & (where < high)
-            if not here.any():
-                continue
+        for label, here in phases(where):
             line = (f"    {label}: {here.sum()} windows, gripper error median "
                     f"{np.median(errors_mm[here]):.1f} mm")
-            if located_mm is not None:
-                line += ", objects located to " + ", ".join(
-                    f"{np.median(located_mm[here, body]):.1f}"
-                    for body in range(located_mm.shape[1])) + " mm (median, in the order above)"
-            print(line)
+            print(line + (located_in(located_mm, here) if located_mm is not None else ""))
 
 
 if __name__ == "__main__":

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Iterator
 from pathlib import Path
 
 import h5py
@@ -160,6 +161,33 @@ def grasp_steps(path: Path, demos: list[str]) -> dict[str, int]:
             grasp = f[f"data/{name}/actions"][:, 6] > 0.5
             closes[name] = int(np.argmax(grasp)) if grasp.any() else len(grasp)
     return closes
+
+
+def phases(where: np.ndarray) -> Iterator[tuple[str, np.ndarray]]:
+    """``PHASES``' labels with the mask of the entries of ``where`` (steps from a demo's
+    first grasp command) each holds; empty phases left out."""
+    for low, high, label in PHASES:
+        here = (where >= low) & (where < high)
+        if here.any():
+            yield label, here
+
+
+def print_located(data: Path, demo: str, errors: np.ndarray, source: str) -> None:
+    """Each object body's position error, ``errors`` (N, bodies) in mm, as read from
+    ``source``: median and 90th percentile, the bodies named as ``demo`` records them."""
+    with h5py.File(data, "r") as f:
+        names = json.loads(f[f"data/{demo}"].attrs["object_bodies"])
+    for body, name in enumerate(names):
+        print(f"  the {name} located from {source}: position error median "
+              f"{np.median(errors[:, body]):.1f} mm, 90th percentile "
+              f"{np.percentile(errors[:, body], 90):.1f} mm")
+
+
+def located_in(errors: np.ndarray, here: np.ndarray) -> str:
+    """The bodies' median position errors over the entries ``here``, for a phase's line."""
+    return (", objects located to " + ", ".join(
+        f"{np.median(errors[here, body]):.1f}" for body in range(errors.shape[1]))
+        + " mm (median, in the order above)")
 
 
 def _numbers(parser: argparse.ArgumentParser, flag: str, text: str, kind: type) -> list:
@@ -289,28 +317,16 @@ def main() -> None:
           f"{np.median(jumps) if jumps else 0.0:.2f} mm")
     errors = np.concatenate(misplaced) if misplaced else None
     if errors is not None:
-        with h5py.File(args.data, "r") as f:
-            names = json.loads(f[f"data/{data.demos[0]}"].attrs["object_bodies"])
-        for body in range(errors.shape[1]):
-            print(f"  the {names[body]} located from the frames: position error median "
-                  f"{np.median(errors[:, body]):.1f} mm, 90th percentile "
-                  f"{np.percentile(errors[:, body], 90):.1f} mm")
+        print_located(args.data, data.demos[0], errors, "the frames")
     if from_grasp:
         where = np.concatenate(from_grasp)
         trans_mm, step_mm = np.asarray(trans), np.asarray(step)
         print("  by phase (steps from the demo's first grasp command):")
-        for low, high, label in PHASES:
-            here = (where >= low) & (where < high)
-            if not here.any():
-                continue
+        for label, here in phases(where):
             line = (f"    {label}: {here.sum()} steps, translation error median "
                     f"{np.median(trans_mm[here]):.2f} mm (the demonstrated step "
                     f"{np.median(step_mm[here]):.2f} mm)")
-            if errors is not None:
-                line += ", objects located to " + ", ".join(
-                    f"{np.median(errors[here, body]):.1f}" for body in range(errors.shape[1])
-                ) + " mm (median, in the order above)"
-            print(line)
+            print(line + (located_in(errors, here) if errors is not None else ""))
     if redrawn:
         print(f"  frames rendered again from the recorded states: {100 * np.median(redrawn):.2f} % "
               f"of a frame's pixels differ from the recorded frame (median; max "

@@ -172,11 +172,18 @@ def test_the_object_loss_of_an_image_diffusion_policy_trains_its_encoders_alone(
     posed[0, 0] = 5.0
     zero = {**batch, "obs": {**batch["obs"], "object_in_tcp": posed}}
     assert float(policy.losses(zero)["aux"].detach()) == pytest.approx(0.0, abs=1e-6)
-    # The diagnostic estimate reads the rollout's (EMA) encoders, in raw units: the head set
-    # to answer the normalised zero pose answers zero.
+    # The diagnostic estimate, in raw units: the head set to answer the normalised zero pose
+    # answers zero; with weights, it reads the rollout's (EMA) encoders and not the trained.
     estimate = policy.estimate_objects(batch["obs"])
     assert estimate.shape == batch["obs"]["object_in_tcp"].shape
     torch.testing.assert_close(estimate, torch.zeros_like(estimate), atol=1e-6, rtol=0)
+    with torch.no_grad():
+        policy.object_head.linear.weight.normal_(generator=g)
+        before = policy.estimate_objects(batch["obs"])
+        for module in (policy.net, policy.ema):
+            module["conditioner"].encoders["left_gray"].linear.bias.add_(1.0)
+            after = policy.estimate_objects(batch["obs"])
+            assert torch.equal(after, before) == (module is policy.net)
     plain = build_policy(dp_config("dp_reltraj", obs_mode="image"), _stats(config, rng, batch))
     assert "aux" not in plain.train().losses(batch) and plain.object_head is None
     with pytest.raises(ValueError, match="no object head"):
@@ -283,7 +290,7 @@ def test_an_image_diffusion_policy_drives_the_diagram_from_the_cameras(tmp_path)
     simulator, result = simulate(built)
     state = built.controller.policy_state(built.controller.GetMyContextFromRoot(
         simulator.get_context()))
-    assert state.step == 5 and state.policy.decisions == 2  # steps 0-2, then 3-5
+    assert state.step == 5 and state.policy.decisions == 2  # chunks at steps 0 and 3
     assert len(state.policy.window) == config.obs_horizon
     assert state.policy.window[-1]["left_gray"].shape[-2:] == (32, 32)
     assert result.episode_time == pytest.approx(0.45, abs=0.01)

@@ -176,12 +176,13 @@ class LearningConfig:
     """Steps between kept snapshots ``step_<N>.pt`` (0: none), the candidates that
     ``legato-drake select`` rolls out on validation scene seeds."""
     seed: int = 0
-    """Seeds the initial weights and, unless ``batch_seed`` is set, the batch order."""
+    """Seeds the initial weights, every random draw of a training (crops, noise, dropout)
+    and, unless ``batch_seed`` is set, the batch order."""
     batch_seed: int | None = None
     """Seeds the batch order alone (which demo windows each step draws; None: ``seed``), so
     that trainings can share their initial weights and differ in their batches, or the
-    reverse. Every other random number of a training (initial weights, noise) stays
-    ``seed``'s."""
+    reverse. Every other random number of a training (initial weights, crops, noise, dropout)
+    stays ``seed``'s."""
     num_workers: int = 0
     """DataLoader worker processes."""
     cpu_threads: int = 1
@@ -307,13 +308,14 @@ NEUTRAL_VALUES = {
     "lr_schedule": lambda fields: fields["lr_schedule"] == "constant",
     "rnn_memory": lambda fields: fields["rnn_memory"] == "reset",
     "ema": lambda fields: not fields["ema"],
-    "batch_seed": lambda fields: fields["batch_seed"] is None,
+    "batch_seed": lambda fields: fields["batch_seed"] in (None, fields["seed"]),
 }
 """Fields added after experiments had keyed their results on whole configs, each with a test
 for the values at which it does what the code did before it existed (L_invar's turn
 resolution was its motion resolution; every noise level weighed alike; images kept at 128 x
 128; no auxiliary object loss; a constant learning rate; the LSTM reset at rollout; no weight
-average for the recurrent families; the batch order seeded by ``seed``). At those values
+average for the recurrent families; the batch order seeded by ``seed``, which a
+``batch_seed`` equal to it also does). At those values
 ``key_fields`` leaves the field out, so those results keep their keys."""
 
 

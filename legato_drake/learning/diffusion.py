@@ -396,7 +396,9 @@ class DiffusionPolicy(PolicyFamily):
     def estimate_objects(self, obs: Mapping[str, torch.Tensor]) -> torch.Tensor:
         """What the object head reads from the rollout's (EMA) image features of raw
         observations (B, T, ...): ``object_in_tcp`` (B, T, 9k) in raw units, for diagnostics
-        (``scripts/chunk_fit.py``); the policy never acts on it. Needs ``object_aux_weight``
+        (``scripts/chunk_fit.py``): whether the encoders the rollout runs locate the objects.
+        The head itself is not averaged (it was fitted to the trained encoders, which the
+        average follows closely). The policy never acts on it. Needs ``object_aux_weight``
         > 0."""
         if self.object_head is None:
             raise ValueError("this policy has no object head (object_aux_weight is 0)")
