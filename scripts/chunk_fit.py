@@ -37,9 +37,8 @@ import torch
 
 # The sibling script (this one runs as ``python scripts/chunk_fit.py``, so scripts/ is on the
 # path): its demo phases and its report of where an encoder locates the objects.
-from legato_fit import grasp_steps, located_in, phases, print_located
+from legato_fit import grasp_steps, located_in, phases, position_errors_mm, print_located
 
-from legato_drake.data.derived import VALUES_PER_BODY
 from legato_drake.data.torch_dataset import SPLITS, DemoSequenceDataset
 from legato_drake.learning.checkpoint import load_checkpoint
 from legato_drake.learning.diffusion import (
@@ -106,10 +105,8 @@ def main() -> None:
             from_grasp.append(start + To - 1 - closes[name])
         if located:
             latest_obs = {k: item["obs"][k][None, To - 1:To] for k in keys}
-            error = (policy.estimate_objects(latest_obs)[0, 0]
-                     - latest_obs["object_in_tcp"][0, 0]).double().numpy()
-            misplaced.append(1000 * np.linalg.norm(
-                error.reshape(-1, VALUES_PER_BODY["object_in_tcp"])[:, :3], axis=-1))
+            misplaced.append(position_errors_mm(policy.estimate_objects(latest_obs)[0, 0],
+                                                latest_obs["object_in_tcp"][0, 0]))
     at_switch = (f"{np.mean(agree_at_switch):.3f} (n = {len(agree_at_switch)})"
                  if agree_at_switch else "no window switches")
     print(f"{args.checkpoint} on the {args.split} demos, {len(errors)} windows, "

@@ -172,6 +172,14 @@ def phases(where: np.ndarray) -> Iterator[tuple[str, np.ndarray]]:
             yield label, here
 
 
+def position_errors_mm(estimate: torch.Tensor, truth: torch.Tensor) -> np.ndarray:
+    """Each body's position error (..., bodies) in mm between two ``object_in_tcp`` values
+    (..., 9k): an object head's estimate and the recorded poses."""
+    error = (estimate - truth).double().numpy()
+    error = error.reshape(*error.shape[:-1], -1, VALUES_PER_BODY["object_in_tcp"])[..., :3]
+    return 1000 * np.linalg.norm(error, axis=-1)
+
+
 def print_located(data: Path, demo: str, errors: np.ndarray, source: str) -> None:
     """Each object body's position error, ``errors`` (N, bodies) in mm, as read from
     ``source``: median and 90th percentile, the bodies named as ``demo`` records them."""
@@ -269,11 +277,9 @@ def main() -> None:
                 name, start = data.window(int(i))
                 from_grasp.append(start + np.flatnonzero(mask) - closes[name])
             if located:
-                n = VALUES_PER_BODY["object_in_tcp"]
-                error = (policy.estimate_objects({k: v[None] for k, v in item["obs"].items()})[0]
-                         - item["obs"]["object_in_tcp"]).double().numpy()[mask]
-                error = error.reshape(len(error), -1, n)[..., :3]
-                misplaced.append(1000 * np.linalg.norm(error, axis=-1))
+                estimate = policy.estimate_objects({k: v[None] for k, v in item["obs"].items()})
+                truth = item["obs"]["object_in_tcp"]
+                misplaced.append(position_errors_mm(estimate[0], truth)[mask])
             # One random direction per window for every perturbation of it.
             angle = rng.uniform(0, 2 * np.pi)
             direction = rng.normal(size=3) if offsets or moves else np.zeros(3)
