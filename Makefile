@@ -25,6 +25,7 @@ bench: $(STAMP)  ## speed benchmarks (tables on stdout)
 	$(BIN)/python benchmarks/bench_training_step.py
 	$(BIN)/python benchmarks/bench_policy.py
 	$(BIN)/python benchmarks/bench_backends.py
+	$(BIN)/python benchmarks/bench_evaluation.py
 
 lock: $(STAMP)  ## refresh requirements/constraints.txt from the tested venv (deliberately)
 	{ sed -n '/^#/p' requirements/constraints.txt; \

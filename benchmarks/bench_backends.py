@@ -34,12 +34,15 @@ def units(embodiment: str, seeds: range, blob: Blob) -> list[TrialUnit]:
 
 
 def measure(executor: Executor, jobs: list[TrialUnit], warmup: list[TrialUnit]) -> tuple:
-    """(wall seconds, {key: (success, reason)}) of ``jobs`` after ``warmup``."""
-    list(executor.as_completed(run_unit, warmup))
+    """(wall seconds, {key: (success, reason)}) of ``jobs`` after ``warmup``, one warm-up
+    unit per worker first in the same stream: a local process pool lives for one stream, so
+    a warm-up stream of its own would leave the measured one to start its workers again."""
+    results = executor.map(run_unit, warmup + jobs)
+    for _ in warmup:  # in order: the clock starts once every worker has run its warm-up
+        next(results)
     start = time.perf_counter()
-    results = dict(executor.as_completed(run_unit, jobs))
-    return time.perf_counter() - start, {k: (r["success"], r["reason"])
-                                         for k, r in results.items()}
+    rows = dict(results)
+    return time.perf_counter() - start, {k: (r["success"], r["reason"]) for k, r in rows.items()}
 
 
 def main() -> None:
