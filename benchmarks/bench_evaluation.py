@@ -9,12 +9,12 @@ included, over its wall seconds: issue 17 asks for 2x) and the trials per core-h
 whole run.
 
 ``--render-threads 1,2`` runs everything once per value of Mesa's ``LP_NUM_THREADS`` (the
-software rasterizer's threads per process, where there is no GPU; the project's default is
-``render_mirror.RENDER_THREADS``, Mesa's own one per core), the values interleaved
-embodiment by embodiment, and prints the ratio of each to the first. Usage:
+software rasterizer's threads per process, where there is no GPU; Mesa's default is one per
+core), the values interleaved embodiment by embodiment, and prints the ratio of each to the
+first. Usage:
 
     python benchmarks/bench_evaluation.py [--trials 4] [--workers 2] [--embodiments all]
-        [--checkpoint checkpoints/legato_image_lid.pt] [--render-threads 1] [--json FILE]
+        [--checkpoint checkpoints/legato_image_lid.pt] [--render-threads 1,2] [--json FILE]
 """
 
 from __future__ import annotations
@@ -46,8 +46,10 @@ def jobs(embodiment: str, checkpoint: Path, seeds: range) -> list[TrialJob]:
 
 def run(embodiment: str, checkpoint: Path, trials: int, workers: int,
         render_threads: str) -> dict:
-    """One embodiment's trials with ``LP_NUM_THREADS=render_threads`` in fresh workers."""
-    os.environ["LP_NUM_THREADS"] = render_threads  # spawned workers inherit it
+    """One embodiment's trials in fresh workers, with ``LP_NUM_THREADS=render_threads``
+    (empty: as this process has it)."""
+    if render_threads:
+        os.environ["LP_NUM_THREADS"] = render_threads  # spawned workers inherit it
     warmup = jobs(embodiment, checkpoint, range(EVAL_SEED0 + 900, EVAL_SEED0 + 900 + workers))
     results = ProcessExecutor(workers).map(
         run_trial, warmup + jobs(embodiment, checkpoint, range(EVAL_SEED0, EVAL_SEED0 + trials)))
@@ -57,8 +59,9 @@ def run(embodiment: str, checkpoint: Path, trials: int, workers: int,
     rows = list(results)
     seconds = time.perf_counter() - start
     rtf = [(r["episode_time"] + conventions.HOMING_DURATION) / r["wall_time"] for r in rows]
-    return dict(embodiment=embodiment, render_threads=int(render_threads), trials=trials,
-                workers=workers, successes=sum(r["success"] for r in rows),
+    return dict(embodiment=embodiment,
+                render_threads=render_threads or os.environ.get("LP_NUM_THREADS", "Mesa's"),
+                trials=trials, workers=workers, successes=sum(r["success"] for r in rows),
                 rtf_per_worker=round(statistics.median(rtf), 3),
                 trials_per_core_hour=round(trials * 3600 / (seconds * workers), 1),
                 wall_s=round(seconds, 1))
@@ -71,8 +74,9 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--embodiments", default="all",
                         help=f"comma-separated, or all ({', '.join(EMBODIMENTS)})")
-    parser.add_argument("--render-threads", default="1",
-                        help="comma-separated values of LP_NUM_THREADS to compare")
+    parser.add_argument("--render-threads", default="",
+                        help="comma-separated values of LP_NUM_THREADS to compare (default: "
+                             "leave it as it is)")
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the rows there")
     args = parser.parse_args()
     embodiments = list(EMBODIMENTS) if args.embodiments == "all" else args.embodiments.split(",")
@@ -80,7 +84,7 @@ def main() -> None:
     threads = args.render_threads.split(",")
     if unknown:
         sys.exit(f"--embodiments: unknown {', '.join(unknown)}; valid: {', '.join(EMBODIMENTS)}")
-    if not all(t.isdigit() for t in threads):
+    if threads != [""] and not all(t.isdigit() for t in threads):
         sys.exit(f"--render-threads: must be comma-separated integers, got {args.render_threads}")
     if not args.checkpoint.is_file():
         sys.exit(f"--checkpoint: no such file {args.checkpoint}")
@@ -88,13 +92,12 @@ def main() -> None:
         sys.exit("--trials and --workers must be at least 1")
     records = [run(e, args.checkpoint, args.trials, args.workers, t)
                for e in embodiments for t in threads]
-    first = {r["embodiment"]: r["rtf_per_worker"] for r in records
-             if r["render_threads"] == int(threads[0])}
+    first = {r["embodiment"]: r["rtf_per_worker"] for r in records[::len(threads)]}
     print(f"{args.checkpoint}, {args.trials} lid trials per embodiment from scene seed "
           f"{EVAL_SEED0}, {args.workers} workers, the cameras on")
     print(format_table(
         ["embodiment", "LP_NUM_THREADS", "successes", "x real time per worker",
-         f"ratio to {threads[0]} thread(s)", "trials / core-hour", "wall s"],
+         "ratio to the first", "trials / core-hour", "wall s"],
         [[r["embodiment"], r["render_threads"], f"{r['successes']}/{r['trials']}",
           r["rtf_per_worker"], f"{r['rtf_per_worker'] / first[r['embodiment']]:.2f}",
           r["trials_per_core_hour"], r["wall_s"]] for r in records]))

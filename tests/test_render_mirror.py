@@ -1,9 +1,6 @@
-"""RenderMirror alone: it copies the perception geometry and poses the mirrored frames; the
-render scene's rasterizer threads."""
+"""RenderMirror alone: it copies the perception geometry and poses the mirrored frames."""
 
 from __future__ import annotations
-
-import os
 
 import numpy as np
 from pydrake.geometry import Box, Role, SceneGraph, Sphere
@@ -12,7 +9,7 @@ from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import SpatialInertia
 from pydrake.systems.framework import DiagramBuilder
 
-from legato_drake.systems.render_mirror import RENDER_THREADS, RenderMirror, add_render_scene
+from legato_drake.systems.render_mirror import RenderMirror
 
 
 def _scene():
@@ -57,16 +54,3 @@ def test_outputs_the_body_poses_for_the_mirrored_frames():
     assert poses.size() == 1
     np.testing.assert_allclose(poses.value(frame).GetAsMatrix4(), X_WB.GetAsMatrix4(),
                                atol=1e-12)
-
-
-def test_the_render_scene_limits_the_software_rasterizer_unless_told_otherwise(monkeypatch):
-    for preset, expected in ((None, str(RENDER_THREADS)), ("3", "3")):
-        if preset is None:
-            monkeypatch.delenv("LP_NUM_THREADS", raising=False)
-        else:
-            monkeypatch.setenv("LP_NUM_THREADS", preset)
-        builder = DiagramBuilder()
-        plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.002), builder)
-        plant.Finalize()
-        add_render_scene(builder, plant, scene_graph, "test_vtk")
-        assert os.environ["LP_NUM_THREADS"] == expected

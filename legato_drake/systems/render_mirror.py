@@ -8,8 +8,6 @@ learns the body poses only when a camera asks for them.
 
 from __future__ import annotations
 
-import os
-
 from pydrake.common.value import AbstractValue
 from pydrake.geometry import (
     FrameId,
@@ -99,19 +97,9 @@ def render_engine_params() -> RenderEngineVtkParams:
     ])
 
 
-RENDER_THREADS = 1
-"""Threads of Mesa's software rasterizer (llvmpipe: what renders where there is no GPU) per
-process, unless ``LP_NUM_THREADS`` says otherwise. Mesa's default, one per core, has every
-worker of a parallel evaluation or collection rasterize on all the cores at once
-(``benchmarks/bench_evaluation.py --render-threads 1,2``)."""
-
-
 def add_render_scene(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: SceneGraph,
                      renderer: str) -> tuple[SceneGraph, RenderMirror]:
-    """Adds a render-only SceneGraph (with a VTK engine named ``renderer``) fed by a mirror.
-    Sets ``LP_NUM_THREADS`` to ``RENDER_THREADS`` where it is unset (before the process's
-    first render engine: Mesa reads it once)."""
-    os.environ.setdefault("LP_NUM_THREADS", str(RENDER_THREADS))
+    """Adds a render-only SceneGraph (with a VTK engine named ``renderer``) fed by a mirror."""
     render_scene_graph = builder.AddNamedSystem("render_scene_graph", SceneGraph())
     render_scene_graph.AddRenderer(renderer, MakeRenderEngineVtk(render_engine_params()))
     mirror = builder.AddNamedSystem("render_mirror",
