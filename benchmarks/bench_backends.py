@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from legato_drake.executor import Blob, Executor, ProcessExecutor, RayExecutor
@@ -33,16 +34,23 @@ def units(embodiment: str, seeds: range, blob: Blob) -> list[TrialUnit]:
         for i, seed in enumerate(seeds)]
 
 
-def measure(executor: Executor, jobs: list[TrialUnit], warmup: list[TrialUnit]) -> tuple:
-    """(wall seconds, {key: (success, reason)}) of ``jobs`` after ``warmup``, one warm-up
-    unit per worker first in the same stream: a local process pool lives for one stream, so
-    a warm-up stream of its own would leave the measured one to start its workers again."""
-    results = executor.map(run_unit, warmup + jobs)
+def timed_after_warmup(executor: Executor, function: Callable, warmup: list,
+                       jobs: list) -> tuple[float, list]:
+    """(wall seconds, results) of ``function`` over ``jobs``, run after ``warmup`` (one job
+    per worker) in the same stream: a local process pool lives for one stream, so a warm-up
+    stream of its own would leave the measured one to start its workers again."""
+    results = executor.map(function, warmup + jobs)
     for _ in warmup:  # in order: the clock starts once every worker has run its warm-up
         next(results)
     start = time.perf_counter()
-    rows = dict(results)
-    return time.perf_counter() - start, {k: (r["success"], r["reason"]) for k, r in rows.items()}
+    rows = list(results)
+    return time.perf_counter() - start, rows
+
+
+def measure(executor: Executor, jobs: list[TrialUnit], warmup: list[TrialUnit]) -> tuple:
+    """(wall seconds, {key: (success, reason)}) of ``jobs`` after ``warmup``."""
+    seconds, rows = timed_after_warmup(executor, run_unit, warmup, jobs)
+    return seconds, {k: (r["success"], r["reason"]) for k, r in rows}
 
 
 def main() -> None:

@@ -24,8 +24,9 @@ import json
 import os
 import statistics
 import sys
-import time
 from pathlib import Path
+
+from bench_backends import timed_after_warmup  # this folder: run as a script
 
 from legato_drake import conventions
 from legato_drake.embodiments import EMBODIMENTS
@@ -50,14 +51,10 @@ def run(embodiment: str, checkpoint: Path, trials: int, workers: int,
     (empty: as this process has it)."""
     if render_threads:
         os.environ["LP_NUM_THREADS"] = render_threads  # spawned workers inherit it
-    warmup = jobs(embodiment, checkpoint, range(EVAL_SEED0 + 900, EVAL_SEED0 + 900 + workers))
-    results = ProcessExecutor(workers).map(
-        run_trial, warmup + jobs(embodiment, checkpoint, range(EVAL_SEED0, EVAL_SEED0 + trials)))
-    for _ in warmup:  # in order: the clock starts once every worker has run its warm-up
-        next(results)
-    start = time.perf_counter()
-    rows = list(results)
-    seconds = time.perf_counter() - start
+    seconds, rows = timed_after_warmup(
+        ProcessExecutor(workers), run_trial,
+        jobs(embodiment, checkpoint, range(EVAL_SEED0 + 900, EVAL_SEED0 + 900 + workers)),
+        jobs(embodiment, checkpoint, range(EVAL_SEED0, EVAL_SEED0 + trials)))
     rtf = [(r["episode_time"] + conventions.HOMING_DURATION) / r["wall_time"] for r in rows]
     return dict(embodiment=embodiment,
                 render_threads=render_threads or os.environ.get("LP_NUM_THREADS", "Mesa's"),
