@@ -454,8 +454,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return EXIT_FAILED if errors else EXIT_OK
 
 
-RUN_FILES = ("last.pt", "best.pt", "log.csv", "config.yaml", "tensorboard", "selected.pt",
-             "selection.json", "selection")
+RUN_FILES = ("last.pt", "best.pt", "log.csv", "config.yaml", "machine.json", "tensorboard",
+             "selected.pt", "selection.json", "selection")
 """What a training run writes into its folder (and ``step_<N>.pt`` snapshots):
 ``train --overwrite`` replaces these, nothing else."""
 
@@ -640,7 +640,8 @@ def build_parser() -> argparse.ArgumentParser:
     inspect.set_defaults(func=cmd_inspect)
 
     train = verbs.add_parser(
-        "train", help="train a policy (LEGATO or BC-RNN) on a demonstration dataset",
+        "train",
+        help="train a policy (LEGATO, BC-RNN or Diffusion Policy) on a demonstration dataset",
         description="Trains the policy of a learning config (configs/*.yaml) on a dataset; "
                     "writes OUT/log.csv (every loss term, validation losses), OUT/last.pt and "
                     "OUT/best.pt (config, normalisation, step, optimizer). Seeded; --resume "

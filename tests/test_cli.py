@@ -258,6 +258,7 @@ def _run_folder(tmp_path):
     (run / "last.pt").write_bytes(b"the old run")
     (run / "log.csv").write_text("step\n1\n")
     (run / "step_000001.pt").write_bytes(b"an old snapshot")
+    (run / "machine.json").write_text('[{"step": 0, "cpu": "the old machine"}]')
     (run / "notes.txt").write_text("the user's own notes")
     return config, data, run
 
@@ -275,6 +276,8 @@ def test_train_into_an_existing_run_is_refused_unless_resume_or_overwrite(tmp_pa
     assert _main(capsys, *args, "--overwrite")[0] == 0
     assert (run / "last.pt").read_bytes() != b"the old run"
     assert not (run / "step_000001.pt").exists()          # the old run's files are gone
+    machines = json.loads((run / "machine.json").read_text())
+    assert [m["cpu"] for m in machines] != ["the old machine"] and len(machines) == 1
     assert (run / "notes.txt").read_text() == "the user's own notes"  # the rest stays
     assert (run / "best.pt").is_file() and not (run / ".overwritten").exists()
 
@@ -293,8 +296,8 @@ def test_a_failed_train_overwrite_puts_the_old_run_back(tmp_path, capsys, monkey
     assert code == 130 and "interrupted" in err
     assert (run / "last.pt").read_bytes() == b"the old run"
     assert (run / "log.csv").read_text() == "step\n1\n"
-    assert sorted(p.name for p in run.iterdir()) == ["last.pt", "log.csv", "notes.txt",
-                                                     "step_000001.pt"]
+    assert sorted(p.name for p in run.iterdir()) == ["last.pt", "log.csv", "machine.json",
+                                                     "notes.txt", "step_000001.pt"]
 
 
 def test_train_checks_its_files_and_device_first(tmp_path, capsys):

@@ -193,7 +193,7 @@ def trained_runs(out: Path) -> dict[str, Path]:
     return found
 
 
-RUN_FILES = ("*.pt", "config.yaml", "log.csv")
+RUN_FILES = ("*.pt", "config.yaml", "log.csv", "machine.json")
 """What a training leaves in its run folder (``selected.pt``, ``selection.json`` and
 ``unit.json`` are the grid's)."""
 
