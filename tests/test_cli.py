@@ -277,7 +277,7 @@ def test_train_into_an_existing_run_is_refused_unless_resume_or_overwrite(tmp_pa
     assert (run / "last.pt").read_bytes() != b"the old run"
     assert not (run / "step_000001.pt").exists()          # the old run's files are gone
     machines = json.loads((run / "machine.json").read_text())
-    assert [m["cpu"] for m in machines] != ["the old machine"] and len(machines) == 1
+    assert len(machines) == 1 and machines[0]["cpu"] != "the old machine"  # not appended
     assert (run / "notes.txt").read_text() == "the user's own notes"  # the rest stays
     assert (run / "best.pt").is_file() and not (run / ".overwritten").exists()
 
@@ -296,6 +296,7 @@ def test_a_failed_train_overwrite_puts_the_old_run_back(tmp_path, capsys, monkey
     assert code == 130 and "interrupted" in err
     assert (run / "last.pt").read_bytes() == b"the old run"
     assert (run / "log.csv").read_text() == "step\n1\n"
+    assert "the old machine" in (run / "machine.json").read_text()
     assert sorted(p.name for p in run.iterdir()) == ["last.pt", "log.csv", "machine.json",
                                                      "notes.txt", "step_000001.pt"]
 
