@@ -276,20 +276,23 @@ def test_training_keys_leave_out_the_rollout_fields_alone(tmp_path):
 def test_fields_added_at_a_neutral_value_keep_the_keys_of_older_runs(tmp_path):
     """A run recorded before L_invar's turn resolution, Min-SNR weighting, image resizing,
     the object loss, the learning-rate schedule, the LSTM's rollout memory, the recurrent
-    families' weight average and the batch order's own seed existed keeps its keys for a
+    families' weight average, the batch order's own seed and the small trunk's strides existed
+    keeps its keys for a
     config that sets them to what the code did before; other values get new keys (a rollout
     field's only where the trials are keyed: the training is shared)."""
     config = tiny_config()
     older = {k: v for k, v in config.to_dict().items()
              if k not in ("invariant_turn_eps", "invariant_snr_clip", "image_resize",
                           "object_aux_weight", "lr_schedule", "rnn_memory", "ema",
-                          "batch_seed")}
+                          "batch_seed", "encoder_strides")}
     neutral = dataclasses.replace(config, invariant_turn_eps=config.invariant_eps,
                                   invariant_snr_clip=0.0, image_resize=0,
                                   object_aux_weight=0.0, lr_schedule="constant",
-                                  rnn_memory="reset", ema=False, batch_seed=None)
+                                  rnn_memory="reset", ema=False, batch_seed=None,
+                                  encoder_strides=None)
     assert key_fields(neutral) == older
     assert key_fields(dataclasses.replace(neutral, batch_seed=neutral.seed)) == older
+    assert key_fields(dataclasses.replace(neutral, encoder_strides=[2, 2])) == older
     assert training_key("d.hdf5", neutral) == training_key("d.hdf5", older)
     window = dataclasses.replace(neutral, rnn_memory="window")
     assert key_fields(window) != older
@@ -301,6 +304,7 @@ def test_fields_added_at_a_neutral_value_keep_the_keys_of_older_runs(tmp_path):
                     dataclasses.replace(neutral, lr_schedule="cosine"),
                     dataclasses.replace(neutral, ema=True),
                     dataclasses.replace(neutral, batch_seed=1),
+                    dataclasses.replace(neutral, encoder_strides=[2, 1]),
                     dataclasses.replace(neutral, invariant_eps=0.005)):
         assert training_key("d.hdf5", changed) != training_key("d.hdf5", older)
     (tmp_path / "runs" / "older").mkdir(parents=True)

@@ -53,6 +53,16 @@ def test_image_encoder_shape(trunk, size, channels):
     assert encoder(torch.rand(2, 1, size, size)).shape == (2, 64)
 
 
+def test_small_trunk_strides_set_the_keypoint_maps_resolution():
+    """``encoder_strides``: a stride-1 layer keeps its input's resolution (84² through 2, 2, 1
+    gives 21² maps, through the default 2, 2, 2 11²)."""
+    images = torch.rand(2, 1, 84, 84)
+    for strides, size in ((None, 11), ([2, 2, 2], 11), ([2, 2, 1], 21), ([2, 1, 1], 42)):
+        encoder = ImageEncoder("small", 8, 16, [4, 8, 8], strides=strides)
+        assert encoder.trunk(images).shape == (2, 8, size, size)
+        assert encoder(images).shape == (2, 16)
+
+
 def test_crops_are_windows_of_the_image_random_in_training_centred_at_rollout():
     """``crop_images`` is the one crop of training (random) and rollout (centred)."""
     images = torch.arange(3 * 2 * 10 * 12, dtype=torch.float32).reshape(3, 2, 10, 12)

@@ -93,6 +93,16 @@ def test_config_errors_name_the_field_and_the_file(tmp_path):
         apply_overrides(tiny_config(), ["batch_seed=-1"])
     with pytest.raises(ConfigError, match="seed in --set must be an integer, got None"):
         apply_overrides(tiny_config(), ["seed=null"])
+    # tiny_config's trunk has two layers
+    assert apply_overrides(tiny_config(), ["encoder_strides=[2,1]"]).encoder_strides == [2, 1]
+    with pytest.raises(ConfigError, match=r"encoder_strides in --set must be one stride, 1 or "
+                                          r"2, per encoder_channels entry \(2\), got \[2, 3\]"):
+        apply_overrides(tiny_config(), ["encoder_strides=[2,3]"])
+    with pytest.raises(ConfigError, match="per encoder_channels entry"):
+        apply_overrides(tiny_config(), ["encoder_strides=[2]"])
+    with pytest.raises(ConfigError, match="encoder_strides in --set must be a list of int or "
+                                          "null"):
+        apply_overrides(tiny_config(), ["encoder_strides=2"])
     save_config(tiny_config(), tmp_path / "round.yaml")
     assert load_config(tmp_path / "round.yaml") == tiny_config()
 

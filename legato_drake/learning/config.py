@@ -66,7 +66,11 @@ class LearningConfig:
     encoder: str = "resnet18"
     """Image trunk: ``resnet18`` (the paper's, not pretrained, 1 channel) or ``small``."""
     encoder_channels: list[int] = field(default_factory=lambda: [16, 32, 32])
-    """Channels of the ``small`` trunk's stride-2 conv layers."""
+    """Channels of the ``small`` trunk's 3x3 conv layers."""
+    encoder_strides: list[int] | None = None
+    """Strides (1 or 2) of the ``small`` trunk's layers, one per ``encoder_channels`` entry;
+    None: 2 each. A stride-1 layer keeps its input's resolution, so the keypoints' maps stay
+    finer (84² with strides 2, 2, 1 gives 21², not 11²) and a layer sees farther."""
     keypoints: int = 32
     """Spatial-softmax keypoints per camera."""
     feature_dim: int = 64
@@ -229,6 +233,12 @@ class LearningConfig:
         if any(c < 1 for c in self.encoder_channels) or not self.encoder_channels:
             raise bad("encoder_channels", f"must be positive integers, got "
                                           f"{self.encoder_channels}")
+        if self.encoder_strides is not None and (
+                len(self.encoder_strides) != len(self.encoder_channels)
+                or any(s not in (1, 2) for s in self.encoder_strides)):
+            raise bad("encoder_strides", f"must be one stride, 1 or 2, per encoder_channels "
+                                         f"entry ({len(self.encoder_channels)}), got "
+                                         f"{self.encoder_strides}")
         if any(d < 1 for d in self.mlp_dims):
             raise bad("mlp_dims", f"must be positive integers, got {self.mlp_dims}")
         if not self.unet_dims or any(d < 1 or d % 8 for d in self.unet_dims):
@@ -309,13 +319,15 @@ NEUTRAL_VALUES = {
     "rnn_memory": lambda fields: fields["rnn_memory"] == "reset",
     "ema": lambda fields: not fields["ema"],
     "batch_seed": lambda fields: fields["batch_seed"] in (None, fields["seed"]),
+    "encoder_strides": lambda fields: fields["encoder_strides"] is None or all(
+        s == 2 for s in fields["encoder_strides"]),
 }
 """Fields added after experiments had keyed their results on whole configs, each with a test
 for the values at which it does what the code did before it existed (L_invar's turn
 resolution was its motion resolution; every noise level weighed alike; images kept at 128 x
 128; no auxiliary object loss; a constant learning rate; the LSTM reset at rollout; no weight
 average for the recurrent families; the batch order seeded by ``seed``, which a
-``batch_seed`` equal to it also does). At those values ``key_fields`` leaves the field out,
+``batch_seed`` equal to it also does; every small-trunk layer at stride 2). At those values ``key_fields`` leaves the field out,
 so those results keep their keys."""
 
 
@@ -361,11 +373,15 @@ def _coerce(name: str, value: object, where: str) -> object:
     elif kind is str:
         if not isinstance(value, str):
             raise ConfigError(f"{name}{place} must be a string, got {value!r}")
-    else:  # list[int] or list[str]
-        item = int if kind == list[int] else str
+    else:  # list[int], list[int] | None or list[str]
+        optional = kind == list[int] | None
+        if optional and value is None:
+            return None
+        item = str if kind == list[str] else int
         if not isinstance(value, list) or not all(
                 isinstance(v, item) and not isinstance(v, bool) for v in value):
-            raise ConfigError(f"{name}{place} must be a list of {item.__name__}, got {value!r}")
+            raise ConfigError(f"{name}{place} must be a list of {item.__name__}"
+                              f"{' or null' * optional}, got {value!r}")
         value = list(value)
     return value
 

@@ -52,17 +52,18 @@ def resnet18_trunk(in_channels: int = 1) -> tuple[nn.Module, int]:
     return nn.Sequential(*layers), cin
 
 
-def small_trunk(channels: list[int], in_channels: int = 1) -> tuple[nn.Module, int]:
-    """A small CPU trunk: stride-2 3x3 convs, each with GroupNorm and ReLU (128x128 -> 16x16
-    with 3 layers). Without the normalisation this shallow stack's features are about 0.003
+def small_trunk(channels: list[int], in_channels: int = 1,
+                strides: list[int] | None = None) -> tuple[nn.Module, int]:
+    """A small CPU trunk: 3x3 convs at ``strides`` (2 each by default: 128x128 -> 16x16 with
+    3 layers), each with GroupNorm and ReLU. Without the normalisation this shallow stack's features are about 0.003
     in size at initialisation and every image's keypoints the same to 2e-4; trained with
     LEGATO's whole loss it then learned no grasp from the images (the NLL's gradient, 100-1000
     in norm, swamps the rest). GroupNorm rather than BatchNorm, as Diffusion Policy does: its
     statistics do not depend on the batch, so training and rollout run the same network."""
     layers: list[nn.Module] = []
     cin = in_channels
-    for cout in channels:
-        layers += [nn.Conv2d(cin, cout, 3, 2, 1, bias=False),
+    for cout, stride in zip(channels, strides or [2] * len(channels), strict=True):
+        layers += [nn.Conv2d(cin, cout, 3, stride, 1, bias=False),
                    nn.GroupNorm(max(1, cout // 8), cout), nn.ReLU(inplace=True)]
         cin = cout
     return nn.Sequential(*layers), cin
@@ -133,12 +134,13 @@ class ImageEncoder(nn.Module):
 
     def __init__(self, trunk: str = "resnet18", keypoints: int = 32, feature_dim: int = 64,
                  channels: list[int] | None = None, crop: int = 0,
-                 precision: str = "float32", resize: int = 0):
+                 precision: str = "float32", resize: int = 0,
+                 strides: list[int] | None = None):
         super().__init__()
         if trunk == "resnet18":
             self.trunk, out = resnet18_trunk(1)
         else:
-            self.trunk, out = small_trunk(list(channels or [16, 32, 32]), 1)
+            self.trunk, out = small_trunk(list(channels or [16, 32, 32]), 1, strides)
         self.keypoints = SpatialSoftmax(out, keypoints)
         self.linear = nn.Linear(2 * keypoints, feature_dim)
         self.resize, self.crop = resize, crop
@@ -150,7 +152,7 @@ class ImageEncoder(nn.Module):
         """The encoder of one camera as ``config`` describes it."""
         return cls(config.encoder, config.keypoints, config.feature_dim,
                    config.encoder_channels, config.image_crop, config.encoder_precision,
-                   config.image_resize)
+                   config.image_resize, config.encoder_strides)
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         if self.resize:
