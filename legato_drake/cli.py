@@ -290,7 +290,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     import torch
 
     from legato_drake.learning.config import load_config
-    from legato_drake.learning.train import train
+    from legato_drake.learning.train import RUN_FILES, SNAPSHOTS, train
+    from legato_drake.pipelines.selection import SELECTION_FILES
 
     if args.resume and args.overwrite:
         raise ConfigError("--resume continues the run in --out, --overwrite replaces it: "
@@ -303,8 +304,9 @@ def cmd_train(args: argparse.Namespace) -> int:
     require_file(args.data, "--data dataset file")
     out = check_output_dir(Path(args.out), "--out")
     if args.overwrite and out.is_dir():
-        _set_aside(args, [*(out / name for name in RUN_FILES), *out.glob("step_*.pt")],
-                   out / ".overwritten", new_files=(out, "step_*.pt"))
+        # the run and what a selection made of it; nothing else in the folder
+        _set_aside(args, [*(out / name for name in (*RUN_FILES, *SELECTION_FILES)),
+                          *out.glob(SNAPSHOTS)], out / ".overwritten", new_files=(out, SNAPSHOTS))
     ckpt = train(config, Path(args.data), out, steps=args.steps, device=args.device,
                  resume=args.resume)
     log.info("step %d, best validation loss %.4f; wrote %s", ckpt.step, ckpt.best_valid,
@@ -452,12 +454,6 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         log.warning("trial %s/%s seed %s: %s", t["embodiment"], t["task"], t["seed"],
                     t["reason"])
     return EXIT_FAILED if errors else EXIT_OK
-
-
-RUN_FILES = ("last.pt", "best.pt", "log.csv", "config.yaml", "machine.json", "tensorboard",
-             "selected.pt", "selection.json", "selection")
-"""What a training run writes into its folder (and ``step_<N>.pt`` snapshots):
-``train --overwrite`` replaces these, nothing else."""
 
 
 def _delete(path: Path) -> None:

@@ -53,6 +53,7 @@ from legato_drake.learning.config import (
     load_config,
     save_config,
 )
+from legato_drake.learning.train import RUN_FILES, SNAPSHOTS
 from legato_drake.pipelines.collect import collect
 from legato_drake.pipelines.evaluate import TrialJob, trial_order, trial_scenario
 from legato_drake.pipelines.selection import candidates, write_selection
@@ -193,28 +194,25 @@ def trained_runs(out: Path) -> dict[str, Path]:
     return found
 
 
-RUN_FILES = ("*.pt", "config.yaml", "log.csv", "machine.json")
-"""What a training leaves in its run folder (``selected.pt``, ``selection.json`` and
-``unit.json`` are the grid's)."""
-
-
 def copy_training(src: Path, dst: Path, config: LearningConfig) -> None:
     """Writes into ``dst`` the files of the finished run ``src`` for a run of ``config``
     that differs from it only in ``ROLLOUT_FIELDS``: its checkpoints with ``config``'s
-    rollout settings written in (``with_rollout_settings``), its config likewise, its log as
-    it is."""
+    rollout settings written in (``with_rollout_settings``), its config likewise, the rest
+    (the log, the machine record, TensorBoard's events) as it is. What a selection made of
+    ``src`` (``selected.pt``, ``selection.json``) and the grid's ``unit.json`` stay behind."""
     dst.mkdir(parents=True, exist_ok=True)
-    for pattern in RUN_FILES:
-        for path in sorted(src.glob(pattern)):
-            if path.name == "selected.pt":
-                continue
-            if path.suffix == ".pt":
-                with_rollout_settings(path, dst / path.name, config)
-            elif path.name == "config.yaml":
-                save_config(dataclasses.replace(load_config(path), **{
-                    name: getattr(config, name) for name in ROLLOUT_FIELDS}), dst / path.name)
-            else:
-                atomic_write_bytes(dst / path.name, path.read_bytes())
+    for path in [*sorted(src.glob(SNAPSHOTS)), *(src / name for name in RUN_FILES)]:
+        if not path.exists():
+            continue
+        if path.is_dir():
+            shutil.copytree(path, dst / path.name, dirs_exist_ok=True)
+        elif path.suffix == ".pt":
+            with_rollout_settings(path, dst / path.name, config)
+        elif path.name == "config.yaml":
+            save_config(dataclasses.replace(load_config(path), **{
+                name: getattr(config, name) for name in ROLLOUT_FIELDS}), dst / path.name)
+        else:
+            atomic_write_bytes(dst / path.name, path.read_bytes())
     log.info("%s: the training of %s, with its rollout settings (%s)", dst.name, src.name,
              ", ".join(f"{n}={getattr(config, n)}" for n in ROLLOUT_FIELDS))
 

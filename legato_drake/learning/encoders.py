@@ -55,11 +55,12 @@ def resnet18_trunk(in_channels: int = 1) -> tuple[nn.Module, int]:
 def small_trunk(channels: list[int], in_channels: int = 1,
                 strides: list[int] | None = None) -> tuple[nn.Module, int]:
     """A small CPU trunk: 3x3 convs at ``strides`` (2 each by default: 128x128 -> 16x16 with
-    3 layers), each with GroupNorm and ReLU. Without the normalisation this shallow stack's features are about 0.003
-    in size at initialisation and every image's keypoints the same to 2e-4; trained with
-    LEGATO's whole loss it then learned no grasp from the images (the NLL's gradient, 100-1000
-    in norm, swamps the rest). GroupNorm rather than BatchNorm, as Diffusion Policy does: its
-    statistics do not depend on the batch, so training and rollout run the same network."""
+    3 layers), each with GroupNorm and ReLU. Without the normalisation this shallow stack's
+    features are about 0.003 in size at initialisation and every image's keypoints the same to
+    2e-4; trained with LEGATO's whole loss it then learned no grasp from the images (the NLL's
+    gradient, 100-1000 in norm, swamps the rest). GroupNorm rather than BatchNorm, as
+    Diffusion Policy does: its statistics do not depend on the batch, so training and rollout
+    run the same network."""
     layers: list[nn.Module] = []
     cin = in_channels
     for cout, stride in zip(channels, strides or [2] * len(channels), strict=True):

@@ -80,6 +80,12 @@ class StepBatchSampler(Sampler[list[int]]):
             yield rng.choice(self.n, self.batch_size, replace=self.n < self.batch_size).tolist()
 
 
+RUN_FILES = ("last.pt", "best.pt", "log.csv", "config.yaml", "machine.json", "tensorboard")
+"""What ``train`` writes into its run folder besides its snapshots (``SNAPSHOTS``)."""
+SNAPSHOTS = "step_*.pt"
+"""The pattern of a run's ``snapshot_path`` files."""
+
+
 def snapshot_path(out: Path, step: int) -> Path:
     """Where a run keeps its snapshot of ``step`` (``LearningConfig.snapshot_every``)."""
     return out / f"step_{step:06d}.pt"

@@ -22,6 +22,9 @@ from legato_drake.executor import Executor
 from legato_drake.files import atomic_write_text
 from legato_drake.pipelines.evaluate import evaluate
 
+SELECTION_FILES = ("selected.pt", "selection.json", "selection")
+"""What ``select_checkpoint`` writes into a run's folder."""
+
 log = logging.getLogger(__name__)
 
 SELECT_SEED0 = 5000
