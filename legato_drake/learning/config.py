@@ -70,7 +70,7 @@ class LearningConfig:
     encoder_strides: list[int] | None = None
     """Strides (1 or 2) of the ``small`` trunk's layers, one per ``encoder_channels`` entry;
     None: 2 each. A stride-1 layer keeps its input's resolution, so the keypoints' maps stay
-    finer (84² with strides 2, 2, 1 gives 21², not 11²) and a layer sees farther."""
+    finer (84² with strides 2, 2, 1 gives 21², not 11²)."""
     keypoints: int = 32
     """Spatial-softmax keypoints per camera."""
     feature_dim: int = 64
