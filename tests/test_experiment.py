@@ -86,6 +86,18 @@ def test_shipped_grids_load():
         {m.name for m in paper.methods}
 
 
+@pytest.mark.parametrize("path", sorted((ROOT / "configs" / "experiments").glob("*.yaml")),
+                         ids=lambda p: p.stem)
+def test_every_shipped_grid_builds_each_methods_learning_config(path):
+    """Every shipped grid loads (``load_grid`` validates each method's config and overrides),
+    so a method declared before it trains fails here on a typo, not hours into an
+    experiment."""
+    grid = load_grid(path)
+    seed = grid.training.seeds[0]
+    for method in grid.methods:
+        assert grid.learning_config(method, seed).seed == seed, method.name
+
+
 GOOD = """
 datasets: [{task: lid, episodes: 4}]
 methods: [{name: a, config: legato_small_state.yaml}]
