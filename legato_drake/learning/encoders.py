@@ -1,10 +1,11 @@
 """Image encoders: a conv trunk, spatial-softmax keypoints and a linear layer per camera.
 
 ``ImageEncoder`` maps one 1-channel image (B, 1, H, W) in [0, 1] to a feature (B, feature_dim):
-conv trunk (ResNet-18 without its pooling and classifier, or a small stride-2 stack), a 1x1
-conv to K keypoint maps, a spatial softmax giving each map's expected (x, y) in [-1, 1], and a
-linear layer from the 2K coordinates (robomimic's ``VisualCore``). The images reach it through
-``data.torch_dataset.image_to_tensor``, the one preprocessing of training and rollout.
+conv trunk (ResNet-18 without its pooling and classifier, or ``small_trunk``'s few 3x3
+convs), a 1x1 conv to K keypoint maps, a spatial softmax giving each map's expected (x, y)
+in [-1, 1], and a linear layer from the 2K coordinates (robomimic's ``VisualCore``). The
+images reach it through ``data.torch_dataset.image_to_tensor``, the one preprocessing of
+training and rollout.
 """
 
 from __future__ import annotations
@@ -128,8 +129,9 @@ class ImageEncoder(nn.Module):
 
     ``resize`` (0: none) scales the images to that size first (``resize_images``), then
     ``crop`` (0: none) crops them (``crop_images``: random while training, centred at
-    rollout). The convolutions run channels-last (twice as fast as channels-first
-    on this project's CPUs, measured by ``benchmarks/bench_training_step.py``) and, with
+    rollout). ``channels`` and ``strides`` shape the small trunk (``small_trunk``). The
+    convolutions run channels-last (twice as fast as channels-first on this project's CPUs,
+    measured by ``benchmarks/bench_training_step.py``) and, with
     ``precision="bfloat16"``, under bfloat16 autocast (twice again where the CPU has
     AVX-512 BF16; the trunk only: the keypoints and everything after stay float32)."""
 
