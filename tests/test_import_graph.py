@@ -14,6 +14,7 @@ edges instead of asserting.
 from __future__ import annotations
 
 import ast
+import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -260,6 +261,19 @@ def test_the_policy_side_imports_nothing_of_the_robot_side():
     assert not paths, ("data/, learning/ and invariants.py reach the robot side through "
                        "other modules:\n" + "\n".join(paths))
 
+
+
+def test_training_a_policy_needs_no_drake():
+    """The learning package runs where Drake is not installed (a GPU training box): importing
+    every one of its modules, and what they import, loads no ``pydrake``."""
+    learning = sorted(m for m in module_files() if _within(m, ("legato_drake.learning",)))
+    code = ("import importlib, sys\n"
+            f"for name in {learning!r}:\n"
+            "    importlib.import_module(name)\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] == 'pydrake'))")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            cwd=ROOT, check=True)
+    assert result.stdout.strip() == "[]", f"legato_drake.learning loads {result.stdout}"
 
 def test_the_core_stays_at_the_bottom_and_robots_and_systems_apart():
     violations = layer_violations(import_graph())

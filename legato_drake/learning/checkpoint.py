@@ -90,9 +90,14 @@ def save_checkpoint(path: str | Path, ckpt: Checkpoint,
         "selection": ckpt.selection, "camera": ckpt.camera,
         "rollout_only": bool(ckpt.rollout_only),
     }
+    _write(Path(path), payload)
+
+
+def _write(path: Path, payload: dict) -> None:
+    """Writes a checkpoint's payload atomically (a reader never sees half a file)."""
     buffer = io.BytesIO()
     torch.save(payload, buffer)
-    atomic_write_bytes(Path(path), buffer.getvalue())
+    atomic_write_bytes(path, buffer.getvalue())
 
 
 def _read(path: Path, device: str = "cpu") -> dict:
@@ -118,9 +123,7 @@ def with_rollout_settings(src: str | Path, dst: str | Path, config: LearningConf
     payload = _read(Path(src))
     settings = {name: getattr(config, name) for name in ROLLOUT_FIELDS}
     payload["config"] = config_from_dict({**payload["config"], **settings}, str(dst)).to_dict()
-    buffer = io.BytesIO()
-    torch.save(payload, buffer)
-    atomic_write_bytes(Path(dst), buffer.getvalue())
+    _write(Path(dst), payload)
 
 
 def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:

@@ -13,11 +13,11 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from pydrake.common.yaml import yaml_dump, yaml_load
+import yaml
 
-from legato_drake.data.layout import HISTORY, HISTORY_KEYS
+from legato_drake.data.layout import HISTORY, HISTORY_KEYS, IMAGE_KEYS
 from legato_drake.errors import ConfigError
-from legato_drake.files import require_file
+from legato_drake.files import atomic_write_text, require_file
 
 OBS_MODES = ("image", "state")
 ENCODERS = ("resnet18", "small")
@@ -294,7 +294,7 @@ class LearningConfig:
         history only with ``history`` > 0)."""
         history = HISTORY_KEYS if self.history > 0 else ()
         if self.obs_mode == "image":
-            return ("left_gray", "right_gray", *history)
+            return (*IMAGE_KEYS, *history)
         return (*history, *self.state_keys)
 
     @property
@@ -405,7 +405,7 @@ def config_from_dict(raw: object, where: str = "") -> LearningConfig:
 
 def _parse_value(text: str) -> object:
     try:
-        return yaml_load(data=f"value: {text}")["value"]
+        return yaml.safe_load(f"value: {text}")["value"]
     except Exception:  # noqa: BLE001 - any YAML problem: keep the text as a string
         return text
 
@@ -436,8 +436,9 @@ def apply_rollout_overrides(config: LearningConfig, overrides: list[str] | None,
 def load_config(path: str | Path, overrides: list[str] | None = None) -> LearningConfig:
     """Loads a learning config YAML file (errors name the file and the field)."""
     path = require_file(path, "learning config file")
+    text = path.read_text()
     try:
-        raw = yaml_load(data=path.read_text()) if path.read_text().strip() else {}
+        raw = yaml.safe_load(text) if text.strip() else {}
     except Exception as e:  # noqa: BLE001 - the YAML parser's many error types
         raise ConfigError(f"malformed learning config {path}: {e}") from None
     return apply_overrides(config_from_dict(raw, str(path)), overrides)
@@ -445,6 +446,4 @@ def load_config(path: str | Path, overrides: list[str] | None = None) -> Learnin
 
 def save_config(config: LearningConfig, path: str | Path) -> None:
     """Writes ``config`` as YAML (atomically)."""
-    from legato_drake.files import atomic_write_text
-
-    atomic_write_text(Path(path), yaml_dump(config.to_dict()))
+    atomic_write_text(Path(path), yaml.safe_dump(config.to_dict(), default_flow_style=None))

@@ -10,7 +10,8 @@ As Diffusion Policy (Chi et al. 2023) does it, written for this project:
   and a sinusoidal embedding of the noise level;
 * training: DDPM noise levels (``diffusers.DDPMScheduler``, squared-cosine schedule,
   ``diffusion_steps``), the L2 loss on the noise; rollout: DDIM (``diffusers.DDIMScheduler``,
-  ``inference_steps``, deterministic); both use an EMA of the weights (``ema_decay``);
+  ``inference_steps``, deterministic); training optimises the weights, validation and rollout
+  run an EMA of them (``ema_decay``);
 * chunk actions are scaled to [-1, 1] by their per-dimension range in the training data
   (``extra_stats``, stored in the checkpoint);
 * a training chunk is the expert's plan from its first step (``chunk_targets: planned``,
@@ -61,7 +62,7 @@ from legato_drake.invariants import (
 )
 from legato_drake.learning.config import LearningConfig
 from legato_drake.learning.encoders import ImageEncoder, encode_sequence
-from legato_drake.learning.family import PolicyFamily, Stats, update_average
+from legato_drake.learning.family import PolicyFamily, Stats, masked_mean, update_average
 from legato_drake.learning.normalization import Normalizer
 from legato_drake.learning.object_head import ObjectHead
 
@@ -205,6 +206,13 @@ class ConditionalUnet1D(nn.Module):
 # the family
 
 
+def _noise_generator(seed: int, count: int) -> torch.Generator:
+    """The generator of a policy's ``count``-th noise draw (a training step's, or a rollout's
+    chunk): the noise depends on the config's seed and the count alone, so a resumed run or a
+    rerun trial draws what an uninterrupted one did."""
+    return torch.Generator().manual_seed((seed * 1_000_003 + count) % 2**63)
+
+
 @dataclass(frozen=True)
 class DiffusionState:
     """The rollout state: the last ``obs_horizon`` observations, oldest first, and how many
@@ -327,8 +335,7 @@ class DiffusionPolicy(PolicyFamily):
     def _generator(self) -> torch.Generator:
         """Training draws its noise from (seed, call count), so a resumed run draws what an
         uninterrupted one would; validation draws the same noise every time."""
-        calls = int(self.calls) if self.training else -1
-        return torch.Generator().manual_seed((self.config.seed * 1_000_003 + calls) % 2**63)
+        return _noise_generator(self.config.seed, int(self.calls) if self.training else -1)
 
     def losses(self, batch: Mapping, levels: torch.Tensor | None = None
                ) -> dict[str, torch.Tensor]:
@@ -339,7 +346,7 @@ class DiffusionPolicy(PolicyFamily):
         To, P = cfg.obs_horizon, cfg.pred_horizon
         obs = {k: v[:, :To] for k, v in batch["obs"].items()}
         chunk = training_chunks(batch, To - 1, P, cfg.chunk_targets)
-        mask = batch["pad_mask"][:, To - 1:To - 1 + P].to(chunk.dtype)
+        mask = batch["pad_mask"][:, To - 1:To - 1 + P]
         x0 = self._scale(chunk)
         generator = self._generator()
         if self.training:
@@ -350,7 +357,7 @@ class DiffusionPolicy(PolicyFamily):
         noisy = self.train_scheduler.add_noise(x0, noise, t)
         features = net["conditioner"].steps(obs)
         predicted = net["unet"](noisy, t.to(x0.device), features.flatten(1))
-        mse = (((predicted - noise) ** 2).mean(-1) * mask).sum() / mask.sum().clamp(min=1)
+        mse = masked_mean(((predicted - noise) ** 2).mean(-1), mask)
         if cfg.invariant_weight > 0:
             clean = self.clean_chunk(noisy, predicted, t)
             invar = invariant_loss(self.demonstrated_history(batch),
@@ -433,12 +440,11 @@ class DiffusionPolicy(PolicyFamily):
         """DDIM-denoises a chunk (B, P, 7) from the observation window (the first one
         repeated until ``obs_horizon`` are seen); the grasp is thresholded at 0.5."""
         cfg = self.config
-        window = state.window or ({k: v.numpy() for k, v in obs.items()
-                                   if k in cfg.obs_keys},)
+        window = state.window or self.observe(obs, state).window
         window = (window[0],) * (cfg.obs_horizon - len(window)) + tuple(window)
         stacked = {k: torch.from_numpy(np.stack([w[k] for w in window], 1)) for k in window[0]}
         cond = self.ema["conditioner"](stacked)
-        generator = torch.Generator().manual_seed(cfg.seed * 1_000_003 + state.decisions)
+        generator = _noise_generator(cfg.seed, state.decisions)
         x = torch.randn((len(cond), cfg.pred_horizon, ACTION_DIM), generator=generator)
         self.sampler.set_timesteps(cfg.inference_steps)
         for t in self.sampler.timesteps:

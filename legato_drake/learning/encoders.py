@@ -79,7 +79,6 @@ class SpatialSoftmax(nn.Module):
     def __init__(self, channels: int, keypoints: int):
         super().__init__()
         self.project = nn.Conv2d(channels, keypoints, 1)
-        self.keypoints = keypoints
 
     @staticmethod
     def expected_xy(maps: torch.Tensor) -> torch.Tensor:

@@ -6,8 +6,8 @@ checkpoints rebuild a policy from its config and normalisation statistics throug
 registry (``learning.registry``); the ``PolicyController`` keeps the policy's rollout state
 opaque and executes the first ``execute_steps`` actions of each predicted chunk before it asks
 again (receding horizon). A recurrent policy predicts one action per call and carries its
-LSTM state; a Diffusion Policy would predict a chunk of P actions and carry its observation
-window.
+LSTM state (``learning.policies``); a Diffusion Policy predicts a chunk of P actions and
+carries its observation window (``learning.diffusion``).
 """
 
 from __future__ import annotations
@@ -22,7 +22,9 @@ from torch import nn
 from legato_drake.learning.config import LearningConfig
 
 Stats = Mapping[str, Mapping[str, np.ndarray]]
-"""Normalisation statistics: observation key (and ``actions``) -> ``mean``, ``std``."""
+"""Normalisation statistics: observation key (and ``actions``) -> ``mean``, ``std``; a
+family's ``extra_stats`` may add entries of its own (the Diffusion Policy's action range:
+``min``, ``max``)."""
 
 
 class PolicyFamily(nn.Module, abc.ABC):
@@ -110,3 +112,10 @@ def update_average(average: nn.Module, parameters: Iterable[torch.Tensor],
         mean.lerp_(current, 1 - decay)
     for mean, current in zip(average.buffers(), buffers, strict=True):
         mean.copy_(current)
+
+
+def masked_mean(values: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """The mean of ``values`` over the entries ``mask`` (same shape, 0 or 1) keeps: a loss
+    over the real steps of padded sequences (0 where the mask keeps nothing)."""
+    mask = mask.to(values.dtype)
+    return (values * mask).sum() / mask.sum().clamp(min=1.0)

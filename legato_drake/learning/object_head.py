@@ -16,7 +16,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from legato_drake.learning.family import Stats
+from legato_drake.learning.family import Stats, masked_mean
 from legato_drake.learning.normalization import Normalizer
 
 TARGET_KEY = "object_in_tcp"
@@ -44,9 +44,8 @@ class ObjectHead(nn.Module):
         """The ``aux`` term: the squared error of the normalised estimate from ``features``
         (B, T, F) against the observed ``object_in_tcp`` (B, T, 9k), averaged over the pose
         values and the steps ``mask`` (B, T) keeps."""
-        error = (self(features) - self.normalizer(obs[TARGET_KEY])).pow(2).mean(-1)
-        mask = mask.to(error.dtype)
-        return (error * mask).sum() / mask.sum().clamp(min=1.0)
+        return masked_mean((self(features) - self.normalizer(obs[TARGET_KEY])).pow(2).mean(-1),
+                           mask)
 
     def estimate(self, features: torch.Tensor) -> torch.Tensor:
         """The estimate in raw units (m and the rotation matrix's columns)."""

@@ -4,8 +4,8 @@
 actions itself with the training statistics it holds as buffers):
 
 * image mode: per camera a conv trunk + spatial softmax + linear (``encoders.ImageEncoder``),
-  concatenated with the 12 pose-delta inputs; state mode: the privileged state features
-  instead of the images.
+  concatenated with the 6 x ``history`` pose-delta inputs (none where ``history`` is 0, as in
+  the small configs); state mode: the privileged state features instead of the images.
 * an LSTM, an MLP (ReLU), then the heads:
 
   - ``legato``: a ``gmm_modes``-component GMM over the 6 pose-delta dims (softplus scales +
@@ -49,7 +49,7 @@ from legato_drake.invariants import (
 )
 from legato_drake.learning.config import LearningConfig
 from legato_drake.learning.encoders import ImageEncoder, encode_sequence
-from legato_drake.learning.family import PolicyFamily, Stats, update_average
+from legato_drake.learning.family import PolicyFamily, Stats, masked_mean, update_average
 from legato_drake.learning.normalization import Normalizer
 from legato_drake.learning.object_head import ObjectHead, rename_legacy_keys
 
@@ -73,11 +73,6 @@ class PolicyOutput:
         """The GMM over the normalised action dims."""
         return D.MixtureSameFamily(D.Categorical(logits=self.logits),
                                    D.Independent(D.Normal(self.means, self.scales), 1))
-
-
-def _masked_mean(values: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
-    mask = mask.to(values.dtype)
-    return (values * mask).sum() / mask.sum().clamp(min=1.0)
 
 
 @dataclass(frozen=True)
@@ -222,8 +217,9 @@ class RecurrentGMMPolicy(PolicyFamily):
 
     def losses(self, batch: Mapping) -> dict[str, torch.Tensor]:
         """The loss terms of a batch of sequences (``DemoSequenceDataset`` items, collated):
-        ``nll``, ``ce`` (0 for BC-RNN), ``invar`` and the weighted ``total``; padded steps
-        are left out. In eval mode, those of the weight average if there is one."""
+        ``nll``, ``ce`` (0 for BC-RNN), ``invar``, ``aux`` (with an object head) and the
+        weighted ``total``; padded steps are left out. In eval mode, those of the weight
+        average if there is one."""
         if self.ema is not None and not self.training:
             return self.ema.losses(batch)
         cfg = self.config
@@ -232,18 +228,18 @@ class RecurrentGMMPolicy(PolicyFamily):
         features = self.features(obs)
         out, _ = self._heads(features)
         target = self.normalizers["actions"](actions)[..., :self.action_dims]
-        nll = _masked_mean(-out.distribution().log_prob(target), mask)
+        nll = masked_mean(-out.distribution().log_prob(target), mask)
         if out.grasp_logits is not None:
             ce_steps = F.cross_entropy(out.grasp_logits.flatten(0, 1),
                                        (actions[..., 6] > 0.5).long().flatten(),
                                        reduction="none").reshape(mask.shape)
-            ce = _masked_mean(ce_steps, mask)
+            ce = masked_mean(ce_steps, mask)
         else:
             ce = torch.zeros((), dtype=nll.dtype, device=nll.device)
         if cfg.invariant_weight > 0:
             history = history_from_observations(obs["delta_positions"], obs["delta_eulers"])
             predicted = self.mode_action(out)[..., :6]
-            invar = _masked_mean(invariant_loss(history, predicted, actions[..., :6],
+            invar = masked_mean(invariant_loss(history, predicted, actions[..., :6],
                                                 reduction="none", eps=cfg.invariant_eps,
                                                 turn_eps=cfg.invariant_turn_eps,
                                                 tail=cfg.invariant_tail),

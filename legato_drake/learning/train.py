@@ -16,7 +16,8 @@
   state), the candidates of ``legato-drake select``; TensorBoard events too if
   ``tensorboard`` happens to be installed.
 
-The batch of step s is drawn by ``numpy.random.default_rng([seed, s])``, so a run resumed from
+The batch of step s is drawn by ``numpy.random.default_rng([batch_order_seed, s])`` (the
+config's ``batch_seed``, else its ``seed``), so a run resumed from
 ``last.pt`` sees exactly the batches an uninterrupted run would have seen (and, on CPU, gives
 the same losses).
 """
@@ -34,13 +35,19 @@ import random
 from collections.abc import Iterator
 from pathlib import Path
 
-import h5py
 import numpy as np
 import torch
 from torch.utils.data import DataLoader, Sampler
 
 from legato_drake.data.derived import available_observations, planned_actions, read_observation
-from legato_drake.data.layout import DatasetError, open_dataset, recorded_camera, sorted_demos
+from legato_drake.data.layout import (
+    IMAGE_KEYS,
+    DatasetError,
+    mask_names,
+    open_dataset,
+    recorded_camera,
+    sorted_demos,
+)
 from legato_drake.data.torch_dataset import DemoSequenceDataset
 from legato_drake.errors import ConfigError
 from legato_drake.files import atomic_write_text, require_file
@@ -65,7 +72,8 @@ VALID_SEED = 7919
 
 class StepBatchSampler(Sampler[list[int]]):
     """The batches of steps ``start .. stop - 1``: batch s = ``batch_size`` distinct indices
-    drawn by ``default_rng([seed, s])`` (independent of where a run was resumed)."""
+    drawn by ``default_rng([seed, s])``, ``seed`` the config's ``batch_order_seed``
+    (independent of where a run was resumed)."""
 
     def __init__(self, n: int, batch_size: int, seed: int, start: int, stop: int):
         self.n, self.batch_size, self.seed = n, batch_size, seed
@@ -110,7 +118,7 @@ def check_data(path: Path, config: LearningConfig) -> list[int]:
         missing = [k for k in config.dataset_keys if k not in available]
         if missing:
             hint = (" (a state-only dataset: collect with the camera, or use obs_mode: state)"
-                    if any(k.endswith("_gray") for k in missing) else "")
+                    if any(k in IMAGE_KEYS for k in missing) else "")
             raise ConfigError(f"obs_mode {config.obs_mode!r} needs observation(s) "
                               f"{', '.join(missing)}, which {path} lacks{hint}; it has "
                               f"{', '.join(sorted(available))}")
@@ -118,11 +126,10 @@ def check_data(path: Path, config: LearningConfig) -> list[int]:
 
 
 def dataset_stats(path: Path, config: LearningConfig) -> dict[str, dict[str, np.ndarray]]:
-    """Normalisation statistics of the low-dim observations and actions of the train split."""
-    from legato_drake.data.layout import mask_names
-
-    keys = [k for k in config.dataset_keys if not k.endswith("_gray")]
-    with h5py.File(path, "r") as f:
+    """Normalisation statistics of the low-dim observations and actions of the train split,
+    and the family's own (``registry.extra_stats``)."""
+    keys = [k for k in config.dataset_keys if k not in IMAGE_KEYS]
+    with open_dataset(path) as f:
         names = mask_names(f, "train") or sorted_demos(f["data"])
         stats = {k: compute_stats([read_observation(f["data"][n]["obs"], k) for n in names],
                                   OBS_MIN_STD) for k in keys}
