@@ -17,7 +17,7 @@ import yaml
 
 from legato_drake.data.layout import HISTORY, HISTORY_KEYS, IMAGE_KEYS
 from legato_drake.errors import ConfigError
-from legato_drake.files import atomic_write_text, require_file
+from legato_drake.files import atomic_write_text, read_text_file
 
 OBS_MODES = ("image", "state")
 ENCODERS = ("resnet18", "small")
@@ -435,8 +435,7 @@ def apply_rollout_overrides(config: LearningConfig, overrides: list[str] | None,
 
 def load_config(path: str | Path, overrides: list[str] | None = None) -> LearningConfig:
     """Loads a learning config YAML file (errors name the file and the field)."""
-    path = require_file(path, "learning config file")
-    text = path.read_text()
+    text = read_text_file(path, "learning config file")
     try:
         raw = yaml.safe_load(text) if text.strip() else {}
     except Exception as e:  # noqa: BLE001 - the YAML parser's many error types
