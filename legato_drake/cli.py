@@ -717,7 +717,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--set", action="append", metavar="FIELD=VALUE",
                           help="how the policy acts (repeatable): action_horizon (steps "
                                "executed per chunk), inference_steps (DDIM steps) or "
-                               "rnn_memory (reset or window: how an LSTM remembers), e.g. "
+                               "rnn_memory (reset or window: how an LSTM remembers) or "
+                               "gmm_action (most_likely or mixture_mean: the GMM's point "
+                               "acted on), e.g. "
                                "inference_steps=3; the trials run a copy of the checkpoint")
     evaluate.add_argument("--seen-scenes", action="store_true",
                           help="allow scene seeds the checkpoint was trained or selected on "

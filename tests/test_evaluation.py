@@ -143,11 +143,12 @@ def test_rollout_settings_change_a_copy_and_are_not_mixed_in(tmp_path, checkpoin
     doc = evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False,
                    overrides=["inference_steps=3", "action_horizon=2"])
     assert seen == [3] and doc["rollout"] == {"action_horizon": 2, "inference_steps": 3,
-                                              "rnn_memory": "reset"}
-    # A results file written before rnn_memory existed resumes: the missing field is its
-    # default.
+                                              "rnn_memory": "reset",
+                                              "gmm_action": "most_likely"}
+    # A results file written before rnn_memory and gmm_action existed resumes: a missing
+    # field is its default.
     older = json.loads((tmp_path / "tiny.json").read_text())
-    del older["rollout"]["rnn_memory"]
+    del older["rollout"]["rnn_memory"], older["rollout"]["gmm_action"]
     (tmp_path / "tiny.json").write_text(json.dumps(older))
     evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False,
              overrides=["inference_steps=3", "action_horizon=2"])
@@ -158,7 +159,8 @@ def test_rollout_settings_change_a_copy_and_are_not_mixed_in(tmp_path, checkpoin
     with pytest.raises(ConfigError, match="--set"):
         evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False,
                  overrides=["inference_steps=5", "action_horizon=2"])
-    with pytest.raises(ConfigError, match="'lr=0.1'.*action_horizon, inference_steps, rnn_memory"):
+    with pytest.raises(ConfigError, match="'lr=0.1'.*action_horizon, inference_steps, "
+                                          "rnn_memory, gmm_action"):
         evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path / "other", progress=False,
                  overrides=["lr=0.1"])
     assert not (tmp_path / "other").exists()

@@ -396,6 +396,37 @@ def test_window_memory_acts_on_the_last_seq_length_frames_and_reset_memory_resta
     assert not torch.allclose(torch.stack(acted_w[L:]), torch.stack(acted_r[L:]))
 
 
+def test_mixture_mean_acts_on_the_weighted_components_and_keeps_the_grasp():
+    """``gmm_action``: ``most_likely`` acts on the most likely component's mean,
+    ``mixture_mean`` on the probability-weighted mean of all components; the grasp and the
+    training losses are the same either way."""
+    torch.manual_seed(0)
+    likely = RecurrentGMMPolicy(tiny_config(), _stats()).eval()
+    mixed = RecurrentGMMPolicy(tiny_config(gmm_action="mixture_mean"), _stats()).eval()
+    mixed.load_state_dict(likely.state_dict())
+    obs = _batch()["obs"]
+    frame = {k: v[:, 0] for k, v in obs.items()}
+    a_likely, _ = likely.act(frame, likely.initial_state())
+    a_mixed, _ = mixed.act(frame, mixed.initial_state())
+    with torch.no_grad():
+        out, _ = likely({k: v[:, :1] for k, v in obs.items()})
+    norm = likely.normalizers["actions"]
+    weights = torch.softmax(out.logits, -1)[..., None]
+    expected = (weights * out.means).sum(-2)[..., :6] * norm.std[:6] + norm.mean[:6]
+    torch.testing.assert_close(a_mixed[..., :6], expected)
+    torch.testing.assert_close(a_likely, likely.mode_action(out))
+    assert not torch.allclose(a_mixed[..., :6], a_likely[..., :6])
+    torch.testing.assert_close(a_mixed[..., 6], a_likely[..., 6])
+    batch = _batch()
+    torch.manual_seed(1)
+    loss_likely = likely.train().losses(batch)["total"]
+    torch.manual_seed(1)
+    loss_mixed = mixed.train().losses(batch)["total"]
+    torch.testing.assert_close(loss_likely, loss_mixed)
+    with pytest.raises(ConfigError, match="gmm_action.*most_likely, mixture_mean"):
+        tiny_config(gmm_action="mean")
+
+
 def test_the_weight_average_follows_the_trained_weights_and_is_what_validates_and_acts():
     """``ema``: the trained parameters are those of a policy without it (same values, same
     order); ``after_step`` moves the frozen copy ``1 - decay`` of the way to them; validation

@@ -29,6 +29,8 @@ LR_SCHEDULES = ("constant", "cosine")
 """``lr_schedule``'s values."""
 RNN_MEMORIES = ("reset", "window")
 """``rnn_memory``'s values."""
+GMM_ACTIONS = ("most_likely", "mixture_mean")
+"""``gmm_action``'s values."""
 STATE_KEYS = ("tcp_commanded", "tcp_measured", "object", "object_in_tcp", "fingers")
 """Privileged observations a ``state`` policy may use: what the EpisodeRecorder records and
 what ``data.derived`` computes from it."""
@@ -106,6 +108,12 @@ class LearningConfig:
     one frame; ``window``: every step reruns the LSTM from a zero state over the last
     ``seq_length`` frames' features (each frame encoded once), so it always acts on
     ``seq_length - 1`` steps of context, as the last step of a training sequence does."""
+    gmm_action: str = "most_likely"
+    """Which point of a recurrent policy's GMM it acts on at rollout. ``most_likely``: the mean
+    of the most likely component (deterministic; a policy whose weight is split between nearby
+    components hops between their means from step to step); ``mixture_mean``: the mixture's
+    mean, the components' means weighted by their probabilities (smooth across such splits,
+    but between two distinct modes it averages them). Training is the same either way."""
     batch_size: int = 16
     lr: float = 1e-4
     lr_schedule: str = "constant"
@@ -252,6 +260,9 @@ class LearningConfig:
         if self.rnn_memory not in RNN_MEMORIES:
             raise bad("rnn_memory", f"must be one of {', '.join(RNN_MEMORIES)}, got "
                                     f"{self.rnn_memory!r}")
+        if self.gmm_action not in GMM_ACTIONS:
+            raise bad("gmm_action", f"must be one of {', '.join(GMM_ACTIONS)}, got "
+                                    f"{self.gmm_action!r}")
         if self.lr_schedule not in LR_SCHEDULES:
             raise bad("lr_schedule", f"must be one of {', '.join(LR_SCHEDULES)}, got "
                                      f"{self.lr_schedule!r}")
@@ -317,6 +328,7 @@ NEUTRAL_VALUES = {
     "object_aux_weight": lambda fields: fields["object_aux_weight"] == 0,
     "lr_schedule": lambda fields: fields["lr_schedule"] == "constant",
     "rnn_memory": lambda fields: fields["rnn_memory"] == "reset",
+    "gmm_action": lambda fields: fields["gmm_action"] == "most_likely",
     "ema": lambda fields: not fields["ema"],
     "batch_seed": lambda fields: fields["batch_seed"] in (None, fields["seed"]),
     "encoder_strides": lambda fields: fields["encoder_strides"] is None or all(
@@ -325,7 +337,8 @@ NEUTRAL_VALUES = {
 """Fields added after experiments had keyed their results on whole configs, each with a test
 for the values at which it does what the code did before it existed (L_invar's turn
 resolution was its motion resolution; every noise level weighed alike; images kept at 128 x
-128; no auxiliary object loss; a constant learning rate; the LSTM reset at rollout; no weight
+128; no auxiliary object loss; a constant learning rate; the LSTM reset at rollout and acting
+on its GMM's most likely component; no weight
 average for the recurrent families; the batch order seeded by ``seed``, which a
 ``batch_seed`` equal to it also does; every small-trunk layer at stride 2). At those values
 ``key_fields`` leaves the field out, so those results keep their keys."""
@@ -340,7 +353,7 @@ def key_fields(config: LearningConfig | dict) -> dict:
             if not (k in NEUTRAL_VALUES and NEUTRAL_VALUES[k](fields))}
 
 
-ROLLOUT_FIELDS = ("action_horizon", "inference_steps", "rnn_memory")
+ROLLOUT_FIELDS = ("action_horizon", "inference_steps", "rnn_memory", "gmm_action")
 """Fields that change how a trained network acts, never how it is trained (a Diffusion
 Policy's executed steps per chunk and DDIM steps, a recurrent policy's memory): an experiment
 trains once for configs that differ only in these, and writes each one's values into its

@@ -192,6 +192,18 @@ class RecurrentGMMPolicy(PolicyFamily):
             grasp = grasp.to(delta.dtype)
         return torch.cat([delta, grasp[..., None]], -1)
 
+    def rollout_action(self, out: PolicyOutput) -> torch.Tensor:
+        """The action a rollout executes (B, T, 7): ``mode_action``, or with ``gmm_action:
+        mixture_mean`` the same with the mixture's mean in place of the most likely
+        component's."""
+        if self.config.gmm_action == "most_likely":
+            return self.mode_action(out)
+        action_norm = self.normalizers["actions"]
+        weights = torch.softmax(out.logits, -1)[..., None]
+        mean = (weights * out.means).sum(-2)[..., :6]
+        delta = mean * action_norm.std[:6] + action_norm.mean[:6]
+        return torch.cat([delta, self.mode_action(out)[..., 6:]], -1)
+
     def _trained(self, named: Iterator[tuple[str, torch.Tensor]]) -> Iterator[torch.Tensor]:
         """The trained copy's tensors of ``named_parameters()`` or ``named_buffers()``."""
         return (value for name, value in named if not name.startswith("ema."))
@@ -281,10 +293,10 @@ class RecurrentGMMPolicy(PolicyFamily):
             frames = (*state.window, features[:, 0].numpy().copy())
             out, _ = self._heads(torch.from_numpy(np.stack(frames, 1)))
             keep = frames[max(0, len(frames) - (self.config.seq_length - 1)):]
-            return self.mode_action(out)[:, -1:], RecurrentState(state.steps + 1, None, keep)
+            return self.rollout_action(out)[:, -1:], RecurrentState(state.steps + 1, None, keep)
         hidden = None
         if state.hidden is not None and state.steps % self.config.seq_length != 0:
             hidden = tuple(torch.from_numpy(h) for h in state.hidden)
         out, hidden = self._heads(features, hidden)
-        return self.mode_action(out), RecurrentState(
+        return self.rollout_action(out), RecurrentState(
             state.steps + 1, tuple(h.numpy().copy() for h in hidden))
