@@ -355,9 +355,9 @@ def key_fields(config: LearningConfig | dict) -> dict:
 
 ROLLOUT_FIELDS = ("action_horizon", "inference_steps", "rnn_memory", "gmm_action")
 """Fields that change how a trained network acts, never how it is trained (a Diffusion
-Policy's executed steps per chunk and DDIM steps, a recurrent policy's memory): an experiment
-trains once for configs that differ only in these, and writes each one's values into its
-copies of the checkpoints."""
+Policy's executed steps per chunk and DDIM steps, a recurrent policy's memory and the point
+of its GMM it acts on): an experiment trains once for configs that differ only in these, and
+writes each one's values into its copies of the checkpoints."""
 
 
 _FIELDS = {f.name: f for f in dataclasses.fields(LearningConfig)}
