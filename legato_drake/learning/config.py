@@ -338,10 +338,10 @@ NEUTRAL_VALUES = {
 for the values at which it does what the code did before it existed (L_invar's turn
 resolution was its motion resolution; every noise level weighed alike; images kept at 128 x
 128; no auxiliary object loss; a constant learning rate; the LSTM reset at rollout and acting
-on its GMM's most likely component; no weight
-average for the recurrent families; the batch order seeded by ``seed``, which a
-``batch_seed`` equal to it also does; every small-trunk layer at stride 2). At those values
-``key_fields`` leaves the field out, so those results keep their keys."""
+on its GMM's most likely component; no weight average for the recurrent families; the batch
+order seeded by ``seed``, which a ``batch_seed`` equal to it also does; every small-trunk
+layer at stride 2). At those values ``key_fields`` leaves the field out, so those results
+keep their keys."""
 
 
 def key_fields(config: LearningConfig | dict) -> dict:

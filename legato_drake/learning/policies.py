@@ -182,22 +182,8 @@ class RecurrentGMMPolicy(PolicyFamily):
     def mode_action(self, out: PolicyOutput) -> torch.Tensor:
         """The low-noise action (B, T, 7) in raw units: the mean of the most likely component
         (differentiable w.r.t. the means), grasp in {0, 1}."""
-        return self._action(gmm_mean_of_most_likely_mode(out.logits, out.means), out)
-
-    def rollout_action(self, out: PolicyOutput) -> torch.Tensor:
-        """The action a rollout executes (B, T, 7): ``mode_action``, or with ``gmm_action:
-        mixture_mean`` the same with the mixture's mean in place of the most likely
-        component's (the grasp as ``mode_action``'s)."""
-        if self.config.gmm_action == "most_likely":
-            return self.mode_action(out)
-        action = self._action((torch.softmax(out.logits, -1)[..., None] * out.means).sum(-2), out)
-        return torch.cat([action[..., :6], self.mode_action(out)[..., 6:]], -1)
-
-    def _action(self, mean: torch.Tensor, out: PolicyOutput) -> torch.Tensor:
-        """A point ``mean`` (B, T, D) of the GMM in normalised units -> the action (B, T, 7)
-        in raw units, the grasp from the grasp head (or, for BC-RNN, ``mean``'s last value
-        thresholded at 0.5)."""
         action_norm = self.normalizers["actions"]
+        mean = gmm_mean_of_most_likely_mode(out.logits, out.means)
         delta = mean[..., :6] * action_norm.std[:6] + action_norm.mean[:6]
         if out.grasp_logits is not None:
             grasp = out.grasp_logits.argmax(-1).to(delta.dtype)
@@ -205,6 +191,16 @@ class RecurrentGMMPolicy(PolicyFamily):
             grasp = (mean[..., 6] * action_norm.std[6] + action_norm.mean[6] >= 0.5)
             grasp = grasp.to(delta.dtype)
         return torch.cat([delta, grasp[..., None]], -1)
+
+    def rollout_action(self, out: PolicyOutput) -> torch.Tensor:
+        """The action a rollout executes (B, T, 7): ``mode_action``, or with ``gmm_action:
+        mixture_mean`` its pose delta replaced by the mixture's mean (the grasp unchanged)."""
+        action = self.mode_action(out)
+        if self.config.gmm_action == "most_likely":
+            return action
+        action_norm = self.normalizers["actions"]
+        mean = (torch.softmax(out.logits, -1)[..., None] * out.means).sum(-2)[..., :6]
+        return torch.cat([mean * action_norm.std[:6] + action_norm.mean[:6], action[..., 6:]], -1)
 
     def _trained(self, named: Iterator[tuple[str, torch.Tensor]]) -> Iterator[torch.Tensor]:
         """The trained copy's tensors of ``named_parameters()`` or ``named_buffers()``."""
