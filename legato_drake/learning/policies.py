@@ -182,12 +182,12 @@ class RecurrentGMMPolicy(PolicyFamily):
     def mode_action(self, out: PolicyOutput) -> torch.Tensor:
         """The low-noise action (B, T, 7) in raw units: the mean of the most likely component
         (differentiable w.r.t. the means), grasp in {0, 1}."""
-        action_norm = self.normalizers["actions"]
         mean = gmm_mean_of_most_likely_mode(out.logits, out.means)
-        delta = mean[..., :6] * action_norm.std[:6] + action_norm.mean[:6]
+        delta = self._raw_pose_delta(mean)
         if out.grasp_logits is not None:
             grasp = out.grasp_logits.argmax(-1).to(delta.dtype)
         else:
+            action_norm = self.normalizers["actions"]
             grasp = (mean[..., 6] * action_norm.std[6] + action_norm.mean[6] >= 0.5)
             grasp = grasp.to(delta.dtype)
         return torch.cat([delta, grasp[..., None]], -1)
@@ -198,9 +198,13 @@ class RecurrentGMMPolicy(PolicyFamily):
         action = self.mode_action(out)
         if self.config.gmm_action == "most_likely":
             return action
+        mean = (torch.softmax(out.logits, -1)[..., None] * out.means).sum(-2)
+        return torch.cat([self._raw_pose_delta(mean), action[..., 6:]], -1)
+
+    def _raw_pose_delta(self, normalised: torch.Tensor) -> torch.Tensor:
+        """The pose delta (..., 6) in raw units of a normalised action (..., 6 or 7)."""
         action_norm = self.normalizers["actions"]
-        mean = (torch.softmax(out.logits, -1)[..., None] * out.means).sum(-2)[..., :6]
-        return torch.cat([mean * action_norm.std[:6] + action_norm.mean[:6], action[..., 6:]], -1)
+        return normalised[..., :6] * action_norm.std[:6] + action_norm.mean[:6]
 
     def _trained(self, named: Iterator[tuple[str, torch.Tensor]]) -> Iterator[torch.Tensor]:
         """The trained copy's tensors of ``named_parameters()`` or ``named_buffers()``."""
