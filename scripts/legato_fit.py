@@ -29,6 +29,10 @@ translation moves against the same frames rendered unmoved. ``--offsets`` (state
 reading ``object_in_tcp``) moves the objects by the same k mm in the state a state policy
 reads: the two answers compare directly.
 
+For an image checkpoint the script prints how sharply each camera's keypoints point: the
+median over the frames and keypoints of a keypoint's largest softmax weight on the feature map
+(1: all on one cell; one over the cells: spread evenly).
+
 For an image checkpoint trained with the auxiliary object loss (``object_aux_weight``), the
 script also prints how far the objects' positions that its head reads from the frames are
 from the true ones (median and 90th percentile, mm, per object body): whether the encoder
@@ -258,6 +262,7 @@ def main() -> None:
     redrawn: list[float] = []  # per frame, the fraction of pixels rendering again changed
     closes = grasp_steps(args.data, data.demos) if args.phases else {}
     from_grasp: list[np.ndarray] = []  # per step, its index relative to the demo's grasp
+    peaks: dict[str, list[np.ndarray]] = {k: [] for k in image_keys}  # keypoints' top weights
     with torch.no_grad():
         for i in picks:
             item = data[int(i)]
@@ -276,6 +281,9 @@ def main() -> None:
             if closes:
                 name, start = data.window(int(i))
                 from_grasp.append(start + np.flatnonzero(mask) - closes[name])
+            for key in image_keys:
+                attention = policy.encoders[key].keypoint_attention(item["obs"][key][mask])
+                peaks[key].append(attention.amax(-1).flatten().numpy())
             if located:
                 estimate = policy.estimate_objects({k: v[None] for k, v in item["obs"].items()})
                 truth = item["obs"]["object_in_tcp"]
@@ -321,6 +329,9 @@ def main() -> None:
           f"it changes at {100 * np.mean(switched):.1f} % of consecutive steps, where the "
           f"translation acted on moves by a median "
           f"{np.median(jumps) if jumps else 0.0:.2f} mm")
+    for key, values in peaks.items():
+        print(f"  {key} keypoints: the largest softmax weight median "
+              f"{np.median(np.concatenate(values)):.3f}")
     errors = np.concatenate(misplaced) if misplaced else None
     if errors is not None:
         print_located(args.data, data.demos[0], errors, "the frames")

@@ -160,6 +160,25 @@ def test_spatial_softmax_keypoints_in_range_and_at_a_known_peak():
     xy = SpatialSoftmax.expected_xy(maps)[0]
     torch.testing.assert_close(xy, torch.tensor([[1.0, -1.0], [0.0, 0.0]]))
 
+def test_keypoint_attention_is_what_the_encoder_reads_its_keypoints_from():
+    """``keypoint_attention`` (legato_fit's diagnostic) is the encoder's own softmax: each
+    keypoint's weights sum to 1, and their expected coordinates are the keypoints."""
+    torch.manual_seed(0)
+    encoder = ImageEncoder("small", 6, 8, [8, 8], resize=32).eval()
+    images = torch.rand(3, 1, 64, 64)
+    with torch.no_grad():
+        attention = encoder.keypoint_attention(images)
+        features = encoder.trunk_features(images)
+        keypoints = encoder.keypoints(features)
+    side = features.shape[-1]
+    assert attention.shape == (3, 6, side * side)
+    torch.testing.assert_close(attention.sum(-1), torch.ones(3, 6))
+    coords = torch.linspace(-1.0, 1.0, side)
+    grid = attention.reshape(3, 6, side, side)
+    torch.testing.assert_close((grid.sum(-2) * coords).sum(-1), keypoints[..., 0])
+    torch.testing.assert_close((grid.sum(-1) * coords).sum(-1), keypoints[..., 1])
+
+
 
 @pytest.mark.parametrize("algo", ["legato", "bc_rnn"])
 @pytest.mark.parametrize("mode", ["state", "image"])

@@ -81,10 +81,16 @@ class SpatialSoftmax(nn.Module):
         self.project = nn.Conv2d(channels, keypoints, 1)
 
     @staticmethod
-    def expected_xy(maps: torch.Tensor) -> torch.Tensor:
+    def attention(maps: torch.Tensor) -> torch.Tensor:
+        """(B, K, H, W) logits -> (B, K, H * W): each keypoint's softmax over the pixels."""
+        B, K, H, W = maps.shape
+        return torch.softmax(maps.reshape(B, K, H * W), -1)
+
+    @classmethod
+    def expected_xy(cls, maps: torch.Tensor) -> torch.Tensor:
         """(B, K, H, W) logits -> (B, K, 2) expected (x, y) of their softmax."""
         B, K, H, W = maps.shape
-        attention = torch.softmax(maps.reshape(B, K, H * W), -1).reshape(B, K, H, W)
+        attention = cls.attention(maps).reshape(B, K, H, W)
         xs = torch.linspace(-1.0, 1.0, W, device=maps.device, dtype=maps.dtype)
         ys = torch.linspace(-1.0, 1.0, H, device=maps.device, dtype=maps.dtype)
         x = (attention.sum(-2) * xs).sum(-1)
@@ -156,7 +162,8 @@ class ImageEncoder(nn.Module):
                    config.encoder_channels, config.image_crop, config.encoder_precision,
                    config.image_resize, config.encoder_strides)
 
-    def forward(self, image: torch.Tensor) -> torch.Tensor:
+    def trunk_features(self, image: torch.Tensor) -> torch.Tensor:
+        """(B, 1, H, W) -> the trunk's feature maps (float32), as ``forward`` computes them."""
         if self.resize:
             image = resize_images(image, self.resize)
         if self.crop:
@@ -164,8 +171,15 @@ class ImageEncoder(nn.Module):
         image = image.contiguous(memory_format=torch.channels_last)
         with torch.autocast(image.device.type, dtype=torch.bfloat16,
                             enabled=self.precision == "bfloat16"):
-            features = self.trunk(image)
-        return self.linear(self.keypoints(features.float()).flatten(1))
+            return self.trunk(image).float()
+
+    def keypoint_attention(self, image: torch.Tensor) -> torch.Tensor:
+        """(B, 1, H, W) -> (B, K, pixels): each keypoint's softmax over the feature map (a
+        diagnostic of how sharply the keypoints point: ``scripts/legato_fit.py``)."""
+        return self.keypoints.attention(self.keypoints.project(self.trunk_features(image)))
+
+    def forward(self, image: torch.Tensor) -> torch.Tensor:
+        return self.linear(self.keypoints(self.trunk_features(image)).flatten(1))
 
 
 def encode_sequence(encoder: nn.Module, images: torch.Tensor) -> torch.Tensor:
