@@ -21,23 +21,26 @@ import yaml
 
 import legato_drake.embodiments as embodiments
 from legato_drake.cli import seed_list
+from legato_drake.embodiments.from_file import parse_ik_settings
+from legato_drake.errors import ConfigError
 from legato_drake.pipelines import retarget
-from legato_drake.robot_types import IkSettings
 from legato_drake.tasks import TASKS
 
 
 def overrides(parser: argparse.ArgumentParser, items: list[str]) -> dict:
-    """``field=value`` items as a dict of ``IkSettings`` fields (parser errors name the bad one)."""
-    fields = {f.name for f in dataclasses.fields(IkSettings)}
-    out = {}
+    """``FIELD=VALUE`` items (values read as YAML) as ``IkSettings`` fields, checked as a robot
+    file's ``ik`` mapping is (``parse_ik_settings``); a bad one is a parser error naming it."""
+    raw = {}
     for item in items:
         name, sep, text = item.partition("=")
-        if not sep or name not in fields:
-            parser.error(f"--set {item!r}: expected FIELD=VALUE with FIELD one of "
-                         f"{', '.join(sorted(fields))}")
-        value = yaml.safe_load(text)
-        out[name] = tuple(value) if isinstance(value, list) else value
-    return out
+        if not sep:
+            parser.error(f"--set {item!r}: expected FIELD=VALUE")
+        raw[name] = yaml.safe_load(text)
+    try:
+        parsed = parse_ik_settings(raw)
+    except ConfigError as e:
+        parser.error(f"--set: {e}")
+    return {name: getattr(parsed, name) for name in raw}
 
 
 def main() -> None:
@@ -53,26 +56,33 @@ def main() -> None:
     for task in tasks:
         if task not in TASKS:
             parser.error(f"--tasks: unknown task {task!r}; choose from {', '.join(TASKS)}")
-    seeds = args.seeds
     changed = overrides(parser, args.set)
     logging.basicConfig(level=logging.WARNING)
     registered = embodiments.EMBODIMENTS[args.embodiment]
-    scripts = {(t, s): retarget.record_script(t, s) for t in tasks for s in seeds}
+    scripts = {(t, s): retarget.record_script(t, s) for t in tasks for s in args.seeds}
     label = " ".join(args.set) or "(nothing changed)"
-    for name, settings in (("registered", registered.ik),
-                           (label, dataclasses.replace(registered.ik, **changed))):
-        # replay() resolves the robot by name: register the variant under it for the run.
-        embodiments.EMBODIMENTS[args.embodiment] = dataclasses.replace(registered, ik=settings)
-        for task in tasks:
-            rows = [retarget.replay(args.embodiment, task, s, scripts[task, s]) for s in seeds]
-            rms = " ".join(f"{r['rms_mm']:.2f}" for r in rows)
-            worst = " ".join(f"{r['max_mm']:.0f}" for r in rows)
-            print(f"{name}: {task} {sum(r['success'] for r in rows)}/{len(rows)} successes; "
-                  f"RMS mm {rms} (mean {sum(r['rms_mm'] for r in rows) / len(rows):.2f}); "
-                  f"worst mm {worst}; smallest limit margin "
-                  f"{min(r['min_limit_margin'] for r in rows):.3f}", flush=True)
-    embodiments.EMBODIMENTS[args.embodiment] = registered
+    try:
+        for name, settings in (("registered", registered.ik),
+                               (label, dataclasses.replace(registered.ik, **changed))):
+            # replay() resolves the robot by name: register the variant under it for the run.
+            embodiments.EMBODIMENTS[args.embodiment] = dataclasses.replace(registered,
+                                                                           ik=settings)
+            replay_tasks(args.embodiment, tasks, args.seeds, scripts, name)
+    finally:
+        embodiments.EMBODIMENTS[args.embodiment] = registered
 
+
+def replay_tasks(embodiment: str, tasks: list[str], seeds: list[int], scripts: dict,
+                 name: str) -> None:
+    """Replays every task's scripts on ``embodiment`` as registered now; a line per task."""
+    for task in tasks:
+        rows = [retarget.replay(embodiment, task, s, scripts[task, s]) for s in seeds]
+        rms = " ".join(f"{r['rms_mm']:.2f}" for r in rows)
+        worst = " ".join(f"{r['max_mm']:.0f}" for r in rows)
+        print(f"{name}: {task} {sum(r['success'] for r in rows)}/{len(rows)} successes; "
+              f"RMS mm {rms} (mean {sum(r['rms_mm'] for r in rows) / len(rows):.2f}); "
+              f"worst mm {worst}; smallest limit margin "
+              f"{min(r['min_limit_margin'] for r in rows):.3f}", flush=True)
 
 if __name__ == "__main__":
     main()

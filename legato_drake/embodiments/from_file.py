@@ -198,7 +198,7 @@ def _parse(raw: object, folder: Path) -> Embodiment:
         base_pose=_pose(raw.get("base_pose"), "base_pose"),
         mount_frame=_string(raw["mount_frame"], "mount_frame"),
         X_mount_gripper=_pose(raw.get("mount"), "mount"), home=home, pd_gains=pd_gains,
-        ik=_ik_settings(_mapping(raw, "ik")),
+        ik=parse_ik_settings(_mapping(raw, "ik")),
         description=_string(raw.get("description", ""), "description"),
         base_type=base_type, base_range=base_range, **extra)
     if default is not None:
@@ -320,8 +320,9 @@ def _write_actuated_copy(urdf: Path, joints: list[str]) -> Path:
     return path
 
 
-def _ik_settings(raw: dict) -> IkSettings:
-    """IkSettings from the ``ik`` mapping, every field checked for its type and range."""
+def parse_ik_settings(raw: dict) -> IkSettings:
+    """IkSettings from the ``ik`` mapping, every field checked for its type and range (a
+    robot file's ``ik``; ``scripts/ik_variants.py``'s ``--set`` overrides)."""
     _check_fields(raw, IK_FIELDS, "ik")
     values: dict[str, object] = {}
     for key, value in raw.items():
