@@ -716,7 +716,10 @@ def build_parser() -> argparse.ArgumentParser:
                           help="only combine these results files into one plot and table")
     evaluate.add_argument("--set", action="append", metavar="FIELD=VALUE",
                           help="how the policy acts (repeatable): action_horizon (steps "
-                               "executed per chunk), inference_steps (DDIM steps) or "
+                               "executed per chunk), inference_steps (DDIM steps), "
+                               "sample_seed (seeds a Diffusion Policy's rollout noise), "
+                               "rollout_noise (policy, scene or zero: one draw for every "
+                               "trial, each scene its own, or none) or "
                                "rnn_memory (reset or window: how an LSTM remembers) or "
                                "gmm_action (most_likely or mixture_mean: the GMM's point "
                                "acted on), e.g. "

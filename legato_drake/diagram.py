@@ -154,10 +154,10 @@ def _policy_controller(scenario: Scenario, plant: MultibodyPlant, robot: RobotHa
         if not scenario.camera.enabled:
             raise ConfigError(f"camera.enabled must be true: checkpoint {scenario.checkpoint} "
                               "is an image policy (obs_mode: image)")
-        return PolicyController(ckpt)
+        return PolicyController(ckpt, scene_seed=scenario.seed)
     features = EpisodeRecorder(plant, robot.tcp_frame, images=False,
                                object_bodies=object_bodies(plant, robot))
-    return PolicyController(ckpt, features)
+    return PolicyController(ckpt, features, scene_seed=scenario.seed)
 
 
 def build_diagram(scenario: Scenario, meshcat: Meshcat | None = None,

@@ -335,6 +335,8 @@ def test_rollout_is_deterministic_and_executes_part_of_each_chunk(tmp_path, abst
     assert set(np.unique(actions[:, 6])) <= {0.0, 1.0} and np.isfinite(actions).all()
     again, _, _ = run()  # a fresh context starts afresh: the same actions
     np.testing.assert_array_equal(actions, again)
+    scene = PolicyController(path, features, scene_seed=7)  # the scene's seed reaches it
+    assert scene.policy_state(scene.CreateDefaultContext()).policy.scene_seed == 7
 
 
 def test_a_shipped_checkpoint_keeps_the_ema_alone_and_acts_the_same(tmp_path):
@@ -358,3 +360,52 @@ def test_a_shipped_checkpoint_keeps_the_ema_alone_and_acts_the_same(tmp_path):
     chunk_a, _ = a.policy.act(obs, a.policy.initial_state())
     chunk_b, _ = b.policy.act(obs, b.policy.initial_state())
     torch.testing.assert_close(chunk_a, chunk_b, rtol=0, atol=0)
+
+
+def test_the_sample_seed_alone_sets_the_rollout_noise():
+    """``sample_seed`` (a rollout field: ``evaluate --set``) replaces the training seed as the
+    seed of each decision's initial noise; unset, the training seed draws it."""
+    from legato_drake.learning.config import apply_rollout_overrides
+
+    rng = np.random.default_rng(2)
+    config = dp_config("dp_reltraj", state_keys=["fingers"], seed=3)
+    stats = _stats(config, rng)
+    policy = build_policy(config, stats).eval()
+    obs = {"fingers": torch.tensor(stats["fingers"]["mean"][None])}
+
+    def chunk(cfg):
+        policy.config = cfg
+        return policy.act(obs, policy.initial_state())[0]
+
+    same = apply_rollout_overrides(config, ["sample_seed=3"])
+    other = apply_rollout_overrides(config, ["sample_seed=4"])
+    torch.testing.assert_close(chunk(config), chunk(same), rtol=0, atol=0)
+    assert not torch.equal(chunk(config), chunk(other))
+
+
+def test_scene_rollout_noise_draws_each_scene_its_own_noise():
+    """``rollout_noise: policy`` starts every scene's k-th chunk from the same noise;
+    ``scene`` draws it from the scene's seed as well: the same scene, the same chunk;
+    ``zero`` denoises from zeros, whatever the seeds."""
+    from legato_drake.learning.config import apply_rollout_overrides
+
+    rng = np.random.default_rng(3)
+    config = dp_config("dp_reltraj", state_keys=["fingers"])
+    stats = _stats(config, rng)
+    policy = build_policy(config, stats).eval()
+    obs = {"fingers": torch.tensor(stats["fingers"]["mean"][None])}
+
+    def chunk(cfg, scene):
+        policy.config = cfg
+        return policy.act(obs, policy.initial_state(scene))[0]
+
+    torch.testing.assert_close(chunk(config, 1), chunk(config, 2), rtol=0, atol=0)
+    per_scene = apply_rollout_overrides(config, ["rollout_noise=scene"])
+    torch.testing.assert_close(chunk(per_scene, 1), chunk(per_scene, 1), rtol=0, atol=0)
+    assert not torch.equal(chunk(per_scene, 1), chunk(per_scene, 2))
+    zero = apply_rollout_overrides(config, ["rollout_noise=zero"])
+    other = apply_rollout_overrides(zero, ["sample_seed=9"])
+    torch.testing.assert_close(chunk(zero, 1), chunk(other, 2), rtol=0, atol=0)
+    assert not torch.equal(chunk(zero, 1), chunk(config, 1))
+    with pytest.raises(ConfigError, match="rollout_noise"):
+        apply_rollout_overrides(config, ["rollout_noise=trial"])

@@ -288,8 +288,8 @@ def test_training_keys_leave_out_the_rollout_fields_alone(tmp_path):
 def test_fields_added_at_a_neutral_value_keep_the_keys_of_older_runs(tmp_path):
     """A run recorded before L_invar's turn resolution, Min-SNR weighting, image resizing,
     the object loss, the learning-rate schedule, the LSTM's rollout memory, the recurrent
-    families' weight average, the batch order's own seed, the small trunk's strides and the
-    GMM's rollout action existed
+    families' weight average, the batch order's own seed, the small trunk's strides, the
+    GMM's rollout action and the rollout noise's own seed existed
     keeps its keys for a
     config that sets them to what the code did before; other values get new keys (a rollout
     field's only where the trials are keyed: the training is shared)."""
@@ -297,18 +297,21 @@ def test_fields_added_at_a_neutral_value_keep_the_keys_of_older_runs(tmp_path):
     older = {k: v for k, v in config.to_dict().items()
              if k not in ("invariant_turn_eps", "invariant_snr_clip", "image_resize",
                           "object_aux_weight", "lr_schedule", "rnn_memory", "ema",
-                          "batch_seed", "encoder_strides", "gmm_action")}
+                          "batch_seed", "encoder_strides", "gmm_action", "sample_seed")}
     neutral = dataclasses.replace(config, invariant_turn_eps=config.invariant_eps,
                                   invariant_snr_clip=0.0, image_resize=0,
                                   object_aux_weight=0.0, lr_schedule="constant",
                                   rnn_memory="reset", ema=False, batch_seed=None,
-                                  encoder_strides=None, gmm_action="most_likely")
+                                  encoder_strides=None, gmm_action="most_likely",
+                                  sample_seed=None)
     assert key_fields(neutral) == older
     assert key_fields(dataclasses.replace(neutral, batch_seed=neutral.seed)) == older
+    assert key_fields(dataclasses.replace(neutral, sample_seed=neutral.seed)) == older
     assert key_fields(dataclasses.replace(neutral, encoder_strides=[2, 2])) == older
     assert training_key("d.hdf5", neutral) == training_key("d.hdf5", older)
     for acting in (dataclasses.replace(neutral, rnn_memory="window"),
-                   dataclasses.replace(neutral, gmm_action="mixture_mean")):
+                   dataclasses.replace(neutral, gmm_action="mixture_mean"),
+                   dataclasses.replace(neutral, sample_seed=neutral.seed + 1)):
         assert key_fields(acting) != older
         assert training_key("d.hdf5", acting) == training_key("d.hdf5", older)
     for changed in (dataclasses.replace(neutral, invariant_turn_eps=0.5),

@@ -31,6 +31,8 @@ RNN_MEMORIES = ("reset", "window")
 """``rnn_memory``'s values."""
 GMM_ACTIONS = ("most_likely", "mixture_mean")
 """``gmm_action``'s values."""
+ROLLOUT_NOISES = ("policy", "scene", "zero")
+"""``rollout_noise``'s values."""
 STATE_KEYS = ("tcp_commanded", "tcp_measured", "object", "object_in_tcp", "fingers")
 """Privileged observations a ``state`` policy may use: what the EpisodeRecorder records and
 what ``data.derived`` computes from it."""
@@ -170,6 +172,17 @@ class LearningConfig:
     """Diffusion Policy: DDPM noise levels in training (squared-cosine schedule)."""
     inference_steps: int = 10
     """Diffusion Policy: DDIM denoising steps per decision at rollout."""
+    sample_seed: int | None = None
+    """Diffusion Policy: seeds the initial noise of each rollout decision's chunk (None:
+    ``seed``, the training's); changing it alone tells how much a policy's success owes to
+    its noise draws."""
+    rollout_noise: str = "policy"
+    """Diffusion Policy: what else the initial noise of a rollout's k-th chunk depends on.
+    ``policy``: nothing, so the k-th decision of every trial starts from the same noise and
+    a policy's trials share one draw of it; ``scene``: the episode's scene seed too, so
+    trials draw their noise independently (and a rerun of a scene draws the same); ``zero``:
+    no noise, every chunk denoised from zeros (DDIM is then a deterministic function of the
+    observations)."""
     ema: bool = False
     """LEGATO and BC-RNN: also keep an exponential moving average of the weights (decay
     ``ema_decay``) and validate, select and roll out the average; a training checkpoint keeps
@@ -260,6 +273,9 @@ class LearningConfig:
         if self.rnn_memory not in RNN_MEMORIES:
             raise bad("rnn_memory", f"must be one of {', '.join(RNN_MEMORIES)}, got "
                                     f"{self.rnn_memory!r}")
+        if self.rollout_noise not in ROLLOUT_NOISES:
+            raise bad("rollout_noise", f"must be one of {', '.join(ROLLOUT_NOISES)}, got "
+                                       f"{self.rollout_noise!r}")
         if self.gmm_action not in GMM_ACTIONS:
             raise bad("gmm_action", f"must be one of {', '.join(GMM_ACTIONS)}, got "
                                     f"{self.gmm_action!r}")
@@ -331,6 +347,8 @@ NEUTRAL_VALUES = {
     "gmm_action": lambda fields: fields["gmm_action"] == "most_likely",
     "ema": lambda fields: not fields["ema"],
     "batch_seed": lambda fields: fields["batch_seed"] in (None, fields["seed"]),
+    "sample_seed": lambda fields: fields["sample_seed"] in (None, fields["seed"]),
+    "rollout_noise": lambda fields: fields["rollout_noise"] == "policy",
     "encoder_strides": lambda fields: fields["encoder_strides"] is None or all(
         s == 2 for s in fields["encoder_strides"]),
 }
@@ -339,9 +357,9 @@ for the values at which it does what the code did before it existed (L_invar's t
 resolution was its motion resolution; every noise level weighed alike; images kept at 128 x
 128; no auxiliary object loss; a constant learning rate; the LSTM reset at rollout and acting
 on its GMM's most likely component; no weight average for the recurrent families; the batch
-order seeded by ``seed``, which a ``batch_seed`` equal to it also does; every small-trunk
-layer at stride 2). At those values ``key_fields`` leaves the field out, so those results
-keep their keys."""
+order seeded by ``seed``, which a ``batch_seed`` equal to it also does, and so the rollout
+noise, drawn alike in every trial; every small-trunk layer at stride 2). At those values
+``key_fields`` leaves the field out, so those results keep their keys."""
 
 
 def key_fields(config: LearningConfig | dict) -> dict:
@@ -353,11 +371,12 @@ def key_fields(config: LearningConfig | dict) -> dict:
             if not (k in NEUTRAL_VALUES and NEUTRAL_VALUES[k](fields))}
 
 
-ROLLOUT_FIELDS = ("action_horizon", "inference_steps", "rnn_memory", "gmm_action")
+ROLLOUT_FIELDS = ("action_horizon", "inference_steps", "sample_seed", "rollout_noise",
+                  "rnn_memory", "gmm_action")
 """Fields that change how a trained network acts, never how it is trained (a Diffusion
-Policy's executed steps per chunk and DDIM steps, a recurrent policy's memory and the point
-of its GMM it acts on): an experiment trains once for configs that differ only in these, and
-writes each one's values into its copies of the checkpoints."""
+Policy's executed steps per chunk, DDIM steps and rollout noise, a recurrent policy's memory
+and the point of its GMM it acts on): an experiment trains once for configs that differ only
+in these, and writes each one's values into its copies of the checkpoints."""
 
 
 _FIELDS = {f.name: f for f in dataclasses.fields(LearningConfig)}

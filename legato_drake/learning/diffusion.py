@@ -39,10 +39,10 @@ only.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
 
 import numpy as np
 import torch
@@ -206,20 +206,26 @@ class ConditionalUnet1D(nn.Module):
 # the family
 
 
-def _noise_generator(seed: int, count: int) -> torch.Generator:
+def _noise_generator(seed: int, count: int, scene: int | None = None) -> torch.Generator:
     """The generator of a policy's ``count``-th noise draw (a training step's, or a rollout's
-    chunk): the noise depends on the config's seed and the count alone, so a resumed run or a
-    rerun trial draws what an uninterrupted one did."""
-    return torch.Generator().manual_seed((seed * 1_000_003 + count) % 2**63)
+    chunk): the noise depends on the config's seed, the count and (a rollout with
+    ``rollout_noise: scene``) the scene's seed alone, so a resumed run or a rerun trial draws
+    what an uninterrupted one did."""
+    key = seed * 1_000_003 + count
+    if scene is not None:
+        key += (scene + 1) * 1_000_000_007
+    return torch.Generator().manual_seed(key % 2**63)
 
 
-@dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True)
 class DiffusionState:
-    """The rollout state: the last ``obs_horizon`` observations, oldest first, and how many
-    chunks were sampled (it seeds each sample's initial noise)."""
+    """The rollout state: the last ``obs_horizon`` observations, oldest first, how many
+    chunks were sampled and the episode's scene seed (they seed each sample's initial
+    noise)."""
 
     window: tuple[dict[str, np.ndarray], ...] = ()
     decisions: int = 0
+    scene_seed: int = 0
 
 
 class _Conditioner(nn.Module):
@@ -424,15 +430,15 @@ class DiffusionPolicy(PolicyFamily):
 
     # -- rollout -------------------------------------------------------------------------
 
-    def initial_state(self) -> DiffusionState:
-        return DiffusionState()
+    def initial_state(self, scene_seed: int = 0) -> DiffusionState:
+        return DiffusionState(scene_seed=scene_seed)
 
     def observe(self, obs: Mapping[str, torch.Tensor], state: DiffusionState
                 ) -> DiffusionState:
         step = {k: v.detach().cpu().numpy().copy() for k, v in obs.items()
                 if k in self.config.obs_keys}
         window = (*state.window, step)[-self.config.obs_horizon:]
-        return DiffusionState(window, state.decisions)
+        return dataclasses.replace(state, window=window)
 
     @torch.no_grad()
     def act(self, obs: Mapping[str, torch.Tensor], state: DiffusionState
@@ -444,13 +450,18 @@ class DiffusionPolicy(PolicyFamily):
         window = (window[0],) * (cfg.obs_horizon - len(window)) + tuple(window)
         stacked = {k: torch.from_numpy(np.stack([w[k] for w in window], 1)) for k in window[0]}
         cond = self.ema["conditioner"](stacked)
-        generator = _noise_generator(cfg.seed, state.decisions)
-        x = torch.randn((len(cond), cfg.pred_horizon, ACTION_DIM), generator=generator)
+        shape = (len(cond), cfg.pred_horizon, ACTION_DIM)
+        if cfg.rollout_noise == "zero":
+            x = torch.zeros(shape)
+        else:
+            seed = cfg.seed if cfg.sample_seed is None else cfg.sample_seed
+            scene = state.scene_seed if cfg.rollout_noise == "scene" else None
+            x = torch.randn(shape, generator=_noise_generator(seed, state.decisions, scene))
         self.sampler.set_timesteps(cfg.inference_steps)
         for t in self.sampler.timesteps:
             eps = self.ema["unet"](x, t.expand(len(x)), cond)
             x = self.sampler.step(eps, t, x).prev_sample
         chunk = self._unscale(x.clamp(-1, 1))
         chunk = torch.cat([chunk[..., :6], (chunk[..., 6:] >= 0.5).to(chunk.dtype)], -1)
-        return chunk, DiffusionState(state.window, state.decisions + 1)
+        return chunk, dataclasses.replace(state, decisions=state.decisions + 1)
 

@@ -88,8 +88,9 @@ class PolicyFamily(nn.Module, abc.ABC):
         ``pad_mask`` (B, T)."""
 
     @abc.abstractmethod
-    def initial_state(self) -> object:
-        """The rollout state at the start of an episode."""
+    def initial_state(self, scene_seed: int = 0) -> object:
+        """The rollout state at the start of an episode in the scene of ``scene_seed`` (a
+        stochastic policy may seed its rollout noise with it)."""
 
     @abc.abstractmethod
     def act(self, obs: Mapping[str, torch.Tensor], state: object

@@ -278,7 +278,7 @@ class RecurrentGMMPolicy(PolicyFamily):
             return self.ema.estimate_objects(obs)
         return self.object_head.estimate(self.features(obs))
 
-    def initial_state(self) -> RecurrentState:
+    def initial_state(self, scene_seed: int = 0) -> RecurrentState:
         return RecurrentState(0, None)
 
     @torch.no_grad()

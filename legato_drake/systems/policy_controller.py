@@ -64,6 +64,9 @@ class PolicyController(LeafSystem):
         done (1): always 0 (a policy never says it is done; the episode's time limit or
             success ends it).
 
+    ``scene_seed`` is the episode's scene seed, which a stochastic policy may draw its
+    rollout noise from (a Diffusion Policy with ``rollout_noise: scene``).
+
     ``threads`` sets torch's (process-wide) thread count: one by default, so that every entry
     point (``evaluate``, a scenario, a notebook) computes the same actions bit for bit; None
     leaves it as it is.
@@ -78,7 +81,7 @@ class PolicyController(LeafSystem):
                  t_start: float = conventions.HOMING_DURATION,
                  period: float = conventions.POLICY_PERIOD,
                  offset: float = conventions.CONTROLLER_OFFSET,
-                 threads: int | None = 1):
+                 threads: int | None = 1, scene_seed: int = 0):
         super().__init__()
         if threads is not None:
             torch.set_num_threads(threads)
@@ -111,8 +114,8 @@ class PolicyController(LeafSystem):
             self._commanded = self.DeclareVectorInputPort("X_WG_commanded", 7)
             self._scratch = features.CreateDefaultContext()
             features.get_action_input_port().FixValue(self._scratch, np.zeros(7))
-        initial = PolicyState(0, self._policy.initial_state(), np.zeros((HISTORY, 6)),
-                              (0.0,) * 7)
+        initial = PolicyState(0, self._policy.initial_state(scene_seed),
+                              np.zeros((HISTORY, 6)), (0.0,) * 7)
         self._state = self.DeclareAbstractState(AbstractValue.Make(initial))
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, t_start + offset, self._step)
         self.DeclareVectorOutputPort("action", 7, self._calc_action, {self.all_state_ticket()})
