@@ -297,7 +297,8 @@ def test_fields_added_at_a_neutral_value_keep_the_keys_of_older_runs(tmp_path):
     older = {k: v for k, v in config.to_dict().items()
              if k not in ("invariant_turn_eps", "invariant_snr_clip", "image_resize",
                           "object_aux_weight", "lr_schedule", "rnn_memory", "ema",
-                          "batch_seed", "encoder_strides", "gmm_action", "sample_seed")}
+                          "batch_seed", "encoder_strides", "gmm_action", "sample_seed",
+                          "rollout_noise")}
     neutral = dataclasses.replace(config, invariant_turn_eps=config.invariant_eps,
                                   invariant_snr_clip=0.0, image_resize=0,
                                   object_aux_weight=0.0, lr_schedule="constant",

@@ -54,7 +54,7 @@ class ChunkPolicy(PolicyFamily):
         mse = ((self.linear(batch["obs"]["fingers"]) - batch["actions"]) ** 2).mean()
         return {"mse": mse, "total": 2 * mse}
 
-    def initial_state(self) -> ChunkState:
+    def initial_state(self, scene_seed: int = 0) -> ChunkState:
         return ChunkState(0)
 
     def act(self, obs, state: ChunkState):
