@@ -413,6 +413,41 @@ def test_a_killed_training_resumes_from_its_scratch_folder(tmp_path, caplog):
             torch.testing.assert_close(a.policy.state_dict()[name], tensor)
 
 
+def test_a_killed_training_resumes_under_a_run_that_shares_it(tmp_path, caplog):
+    """The scratch folder of a training is named by its training key, so a run differing in
+    ``ROLLOUT_FIELDS`` alone resumes what another run started (a folder named by the run's
+    own key, as before, is renamed), and its files act as its own config says: its rollout
+    settings in every checkpoint and in ``config.yaml``, the weights of a training never
+    interrupted."""
+    data = Blob.of(synthetic_dataset(tmp_path / "d.hdf5"))
+    started = tiny_config(steps=20, snapshot_every=10)
+    sharing = dataclasses.replace(started, action_horizon=3)
+    assert training_key("d", started) == training_key("d", sharing)
+    _, whole = run_unit(TrainUnit("k", started.to_dict(), data))
+
+    scratch_root = tmp_path / ".training"
+    run = dataclasses.make_dataclass("Run", ["key", "training_key"])(
+        "dp-lid-seed0-abc", training_key("d", started))
+    train(started, data.path(), scratch_root / run.key, steps=10, progress=False)
+    scheduler = dataclasses.make_dataclass("Scheduler", ["scratch"])(scratch_root)
+    scratch = runner._Scheduler._scratch_of(scheduler, run)
+    assert scratch == scratch_root / run.training_key and (scratch / "last.pt").is_file()
+    assert not (scratch_root / run.key).exists()
+
+    with caplog.at_level(logging.INFO, "legato_drake.experiment.units"):
+        _, files = run_unit(TrainUnit("k2", sharing.to_dict(), data, scratch=str(scratch)))
+    assert "resuming the training" in caplog.text and "with the rollout settings" in caplog.text
+    assert "action_horizon: 3" in files["config.yaml"].decode()
+    for name in ("last.pt", "step_000010.pt"):
+        (tmp_path / name).write_bytes(files[name])
+        assert load_checkpoint(tmp_path / name).config.action_horizon == 3
+    (tmp_path / "whole.pt").write_bytes(whole["last.pt"])
+    a, b = load_checkpoint(tmp_path / "last.pt"), load_checkpoint(tmp_path / "whole.pt")
+    assert a.step == b.step == 20
+    for name, tensor in b.policy.state_dict().items():
+        torch.testing.assert_close(a.policy.state_dict()[name], tensor)
+
+
 def test_killed_driver_resumes_without_loss_or_repeats(local_run, tmp_path):
     """Kill the driver once some trials are recorded, run again: the recorded trials stay
     as they were, each trial is recorded once, the results equal an uninterrupted run."""

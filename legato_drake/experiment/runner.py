@@ -30,7 +30,6 @@ from its beginning.
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import json
 import logging
 import os
@@ -45,13 +44,11 @@ from legato_drake.executor import Blob, Executor, RayExecutor
 from legato_drake.experiment.grid import EvaluationSpec, Grid, MethodSpec, grid_dict
 from legato_drake.experiment.units import TrainUnit, TrialUnit, run_unit, unit_key
 from legato_drake.files import atomic_write_bytes, atomic_write_csv, atomic_write_text
-from legato_drake.learning.checkpoint import with_rollout_settings
+from legato_drake.learning.checkpoint import set_rollout_settings
 from legato_drake.learning.config import (
     ROLLOUT_FIELDS,
     LearningConfig,
     key_fields,
-    load_config,
-    save_config,
 )
 from legato_drake.learning.train import RUN_FILES, SNAPSHOTS
 from legato_drake.pipelines.collect import collect
@@ -196,23 +193,17 @@ def trained_runs(out: Path) -> dict[str, Path]:
 
 def copy_training(src: Path, dst: Path, config: LearningConfig) -> None:
     """Writes into ``dst`` the files of the finished run ``src`` for a run of ``config``
-    that differs from it only in ``ROLLOUT_FIELDS``: its checkpoints with ``config``'s
-    rollout settings written in (``with_rollout_settings``), its config likewise, the rest
-    (the log, the machine record, TensorBoard's events) as it is. What a selection made of
-    ``src`` (``selected.pt``, ``selection.json``) and the grid's ``unit.json`` stay behind."""
+    that differs from it only in ``ROLLOUT_FIELDS``: its checkpoints and config with
+    ``config``'s rollout settings written in (``set_rollout_settings``), the rest (the log,
+    the machine record, TensorBoard's events) as it is. What a selection made of ``src``
+    (``selected.pt``, ``selection.json``) and the grid's ``unit.json`` stay behind."""
     dst.mkdir(parents=True, exist_ok=True)
     for path in [*sorted(src.glob(SNAPSHOTS)), *(src / name for name in RUN_FILES)]:
-        if not path.exists():
-            continue
         if path.is_dir():
             shutil.copytree(path, dst / path.name, dirs_exist_ok=True)
-        elif path.suffix == ".pt":
-            with_rollout_settings(path, dst / path.name, config)
-        elif path.name == "config.yaml":
-            save_config(dataclasses.replace(load_config(path), **{
-                name: getattr(config, name) for name in ROLLOUT_FIELDS}), dst / path.name)
-        else:
+        elif path.is_file():
             atomic_write_bytes(dst / path.name, path.read_bytes())
+    set_rollout_settings(dst, config)
     log.info("%s: the training of %s, with its rollout settings (%s)", dst.name, src.name,
              ", ".join(f"{n}={getattr(config, n)}" for n in ROLLOUT_FIELDS))
 
@@ -269,12 +260,22 @@ class _Scheduler:
                 self.sharing[run.training_key] = []
                 if run.data not in self.datasets:
                     self.datasets[run.data] = Blob.of(run.data)  # one copy for all its runs
-                scratch = str(self.scratch / run.key) if self.scratch else ""
+                scratch = str(self._scratch_of(run)) if self.scratch else ""
                 trainings.append(TrainUnit(run.key, run.config.to_dict(),
                                            self.datasets[run.data],
                                            self.grid.training.threads, self.device, scratch))
                 self.by_key[run.key] = (run, None)
         self.ready.extendleft(reversed(trainings))  # trainings first: the longest units
+
+    def _scratch_of(self, run: RunPlan) -> Path:
+        """The scratch folder of ``run``'s training, named by its training key, so that any
+        run sharing the training resumes it (a killed ``dp_x`` training is resumed by
+        ``dp_x_zero``, which differs in its rollout settings alone). A folder named by the
+        run's own key (how they were named before) is renamed to it."""
+        folder, before = self.scratch / run.training_key, self.scratch / run.key
+        if before.is_dir() and not folder.exists():
+            before.rename(folder)
+        return folder
 
     def next_job(self, in_flight: int) -> TrainUnit | TrialUnit | None:
         return self.ready.popleft() if self.ready else None
@@ -327,7 +328,7 @@ class _Scheduler:
                     data=run.data.name, config=run.config.to_dict())
         atomic_write_text(run.folder / "unit.json", json.dumps(unit, indent=1))
         if self.scratch is not None:
-            shutil.rmtree(self.scratch / run.key, ignore_errors=True)
+            shutil.rmtree(self.scratch / run.training_key, ignore_errors=True)
             with contextlib.suppress(OSError):  # another training still under way
                 self.scratch.rmdir()
 

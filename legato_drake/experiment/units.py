@@ -103,11 +103,14 @@ def _train(unit: TrainUnit) -> dict[str, bytes]:
 
 def _train_in(folder: Path, config: LearningConfig, unit: TrainUnit) -> dict[str, bytes]:
     """Trains (or resumes) the run in ``folder``; returns its files."""
+    from legato_drake.learning.checkpoint import set_rollout_settings
     from legato_drake.learning.train import train
 
     resume = (folder / "last.pt").is_file()
     if resume:
         log.info("resuming the training of %s from %s", unit.key, folder / "last.pt")
+        if set_rollout_settings(folder, config):  # started by a run that shares it
+            log.info("%s: with the rollout settings of %s", folder, unit.key)
     else:  # a fresh folder, or one killed before its first checkpoint: nothing to keep
         shutil.rmtree(folder, ignore_errors=True)
     # How far an hour-long training is, as a log line a minute (a bar per worker would

@@ -25,7 +25,13 @@ import torch
 
 from legato_drake.errors import ConfigError, LegatoError
 from legato_drake.files import atomic_write_bytes, require_file
-from legato_drake.learning.config import ROLLOUT_FIELDS, LearningConfig, config_from_dict
+from legato_drake.learning.config import (
+    ROLLOUT_FIELDS,
+    LearningConfig,
+    config_from_dict,
+    load_config,
+    save_config,
+)
 from legato_drake.learning.family import PolicyFamily
 from legato_drake.learning.normalization import stats_from_lists, stats_to_lists
 from legato_drake.learning.registry import build_policy
@@ -124,6 +130,23 @@ def with_rollout_settings(src: str | Path, dst: str | Path, config: LearningConf
     settings = {name: getattr(config, name) for name in ROLLOUT_FIELDS}
     payload["config"] = config_from_dict({**payload["config"], **settings}, str(dst)).to_dict()
     _write(Path(dst), payload)
+
+
+def set_rollout_settings(folder: str | Path, config: LearningConfig) -> bool:
+    """Writes ``config``'s ``ROLLOUT_FIELDS`` into every checkpoint of the training run in
+    ``folder`` and into its ``config.yaml`` (``with_rollout_settings``): the run then acts as
+    ``config`` says. For runs that share one training (they differ in those fields alone).
+    Returns whether anything changed."""
+    folder = Path(folder)
+    recorded = load_config(folder / "config.yaml")
+    settings = {name: getattr(config, name) for name in ROLLOUT_FIELDS}
+    if all(getattr(recorded, name) == value for name, value in settings.items()):
+        return False
+    for path in sorted(folder.glob("*.pt")):
+        with_rollout_settings(path, path, config)
+    save_config(config_from_dict({**recorded.to_dict(), **settings}, str(folder)),
+                folder / "config.yaml")
+    return True
 
 
 def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
