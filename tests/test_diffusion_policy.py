@@ -409,3 +409,31 @@ def test_scene_rollout_noise_draws_each_scene_its_own_noise():
     assert not torch.equal(chunk(zero, 1), chunk(config, 1))
     with pytest.raises(ConfigError, match="rollout_noise"):
         apply_rollout_overrides(config, ["rollout_noise=trial"])
+
+
+def test_the_noise_scale_is_a_sampling_temperature_from_zeros_to_the_full_draw():
+    """``noise_scale`` multiplies each chunk's initial noise: 1 is the full draw, 0 the same
+    chunk as ``rollout_noise: zero``, and in between the chunk moves from one toward the
+    other; outside [0, 1] is an error naming the field."""
+    from legato_drake.learning.config import apply_rollout_overrides
+
+    rng = np.random.default_rng(4)
+    config = apply_rollout_overrides(dp_config("dp_reltraj", state_keys=["fingers"]),
+                                     ["rollout_noise=scene"])
+    stats = _stats(config, rng)
+    policy = build_policy(config, stats).eval()
+    obs = {"fingers": torch.tensor(stats["fingers"]["mean"][None])}
+
+    def chunk(*overrides):
+        policy.config = apply_rollout_overrides(config, list(overrides))
+        return policy.act(obs, policy.initial_state(7))[0]
+
+    full, zero = chunk(), chunk("rollout_noise=zero")
+    torch.testing.assert_close(chunk("noise_scale=1"), full, rtol=0, atol=0)
+    torch.testing.assert_close(chunk("noise_scale=0"), zero, rtol=0, atol=0)
+    distances = [float((chunk(f"noise_scale={s}") - zero)[..., :6].norm())
+                 for s in (0.25, 0.5, 1.0)]
+    assert 0 < distances[0] < distances[1] < distances[2]
+    for bad in ("noise_scale=1.5", "noise_scale=-0.1", "noise_scale=nan"):
+        with pytest.raises(ConfigError, match="noise_scale"):
+            apply_rollout_overrides(config, [bad])

@@ -144,12 +144,13 @@ def test_rollout_settings_change_a_copy_and_are_not_mixed_in(tmp_path, checkpoin
                    overrides=["inference_steps=3", "action_horizon=2"])
     assert seen == [3] and doc["rollout"] == {"action_horizon": 2, "inference_steps": 3,
                                               "sample_seed": None, "rollout_noise": "policy",
+                                              "noise_scale": 1.0,
                                               "rnn_memory": "reset",
                                               "gmm_action": "most_likely"}
     # A results file written before rnn_memory, gmm_action and the rollout noise's fields
     # existed resumes: a missing field is its default.
     older = json.loads((tmp_path / "tiny.json").read_text())
-    for name in ("rnn_memory", "gmm_action", "sample_seed", "rollout_noise"):
+    for name in ("rnn_memory", "gmm_action", "sample_seed", "rollout_noise", "noise_scale"):
         del older["rollout"][name]
     (tmp_path / "tiny.json").write_text(json.dumps(older))
     evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False,
@@ -162,7 +163,8 @@ def test_rollout_settings_change_a_copy_and_are_not_mixed_in(tmp_path, checkpoin
         evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path, progress=False,
                  overrides=["inference_steps=5", "action_horizon=2"])
     with pytest.raises(ConfigError, match="'lr=0.1'.*action_horizon, inference_steps, "
-                                          "sample_seed, rollout_noise, rnn_memory, "
+                                          "sample_seed, rollout_noise, noise_scale, "
+                                          "rnn_memory, "
                                           "gmm_action"):
         evaluate(checkpoint, ["abstract"], ["lid"], 1, tmp_path / "other", progress=False,
                  overrides=["lr=0.1"])

@@ -289,7 +289,7 @@ def test_fields_added_at_a_neutral_value_keep_the_keys_of_older_runs(tmp_path):
     """A run recorded before L_invar's turn resolution, Min-SNR weighting, image resizing,
     the object loss, the learning-rate schedule, the LSTM's rollout memory, the recurrent
     families' weight average, the batch order's own seed, the small trunk's strides, the
-    GMM's rollout action and the rollout noise's own seed existed
+    GMM's rollout action and the rollout noise's own seed and scale existed
     keeps its keys for a
     config that sets them to what the code did before; other values get new keys (a rollout
     field's only where the trials are keyed: the training is shared)."""
@@ -298,7 +298,7 @@ def test_fields_added_at_a_neutral_value_keep_the_keys_of_older_runs(tmp_path):
              if k not in ("invariant_turn_eps", "invariant_snr_clip", "image_resize",
                           "object_aux_weight", "lr_schedule", "rnn_memory", "ema",
                           "batch_seed", "encoder_strides", "gmm_action", "sample_seed",
-                          "rollout_noise")}
+                          "rollout_noise", "noise_scale")}
     neutral = dataclasses.replace(config, invariant_turn_eps=config.invariant_eps,
                                   invariant_snr_clip=0.0, image_resize=0,
                                   object_aux_weight=0.0, lr_schedule="constant",
@@ -312,7 +312,8 @@ def test_fields_added_at_a_neutral_value_keep_the_keys_of_older_runs(tmp_path):
     assert training_key("d.hdf5", neutral) == training_key("d.hdf5", older)
     for acting in (dataclasses.replace(neutral, rnn_memory="window"),
                    dataclasses.replace(neutral, gmm_action="mixture_mean"),
-                   dataclasses.replace(neutral, sample_seed=neutral.seed + 1)):
+                   dataclasses.replace(neutral, sample_seed=neutral.seed + 1),
+                   dataclasses.replace(neutral, noise_scale=0.5)):
         assert key_fields(acting) != older
         assert training_key("d.hdf5", acting) == training_key("d.hdf5", older)
     for changed in (dataclasses.replace(neutral, invariant_turn_eps=0.5),

@@ -183,6 +183,10 @@ class LearningConfig:
     trials draw their noise independently (and a rerun of a scene draws the same); ``zero``:
     no noise, every chunk denoised from zeros (DDIM is then a deterministic function of the
     observations)."""
+    noise_scale: float = 1.0
+    """Diffusion Policy: the initial noise of each rollout chunk, drawn as ``rollout_noise``
+    says, is multiplied by it: a sampling temperature between 1 (draws from what the network
+    learnt) and 0 (the same as ``rollout_noise: zero``)."""
     ema: bool = False
     """LEGATO and BC-RNN: also keep an exponential moving average of the weights (decay
     ``ema_decay``) and validate, select and roll out the average; a training checkpoint keeps
@@ -276,6 +280,8 @@ class LearningConfig:
         if self.rollout_noise not in ROLLOUT_NOISES:
             raise bad("rollout_noise", f"must be one of {', '.join(ROLLOUT_NOISES)}, got "
                                        f"{self.rollout_noise!r}")
+        if not 0.0 <= self.noise_scale <= 1.0:  # NaN too
+            raise bad("noise_scale", f"must be in [0, 1], got {self.noise_scale!r}")
         if self.gmm_action not in GMM_ACTIONS:
             raise bad("gmm_action", f"must be one of {', '.join(GMM_ACTIONS)}, got "
                                     f"{self.gmm_action!r}")
@@ -349,6 +355,7 @@ NEUTRAL_VALUES = {
     "batch_seed": lambda fields: fields["batch_seed"] in (None, fields["seed"]),
     "sample_seed": lambda fields: fields["sample_seed"] in (None, fields["seed"]),
     "rollout_noise": lambda fields: fields["rollout_noise"] == "policy",
+    "noise_scale": lambda fields: fields["noise_scale"] == 1.0,
     "encoder_strides": lambda fields: fields["encoder_strides"] is None or all(
         s == 2 for s in fields["encoder_strides"]),
 }
@@ -358,7 +365,8 @@ resolution was its motion resolution; every noise level weighed alike; images ke
 128; no auxiliary object loss; a constant learning rate; the LSTM reset at rollout and acting
 on its GMM's most likely component; no weight average for the recurrent families; the batch
 order seeded by ``seed``, which a ``batch_seed`` equal to it also does, and so the rollout
-noise, drawn alike in every trial; every small-trunk layer at stride 2). At those values
+noise, drawn alike in every trial and at full scale; every small-trunk layer at stride
+2). At those values
 ``key_fields`` leaves the field out, so those results keep their keys."""
 
 
@@ -372,7 +380,7 @@ def key_fields(config: LearningConfig | dict) -> dict:
 
 
 ROLLOUT_FIELDS = ("action_horizon", "inference_steps", "sample_seed", "rollout_noise",
-                  "rnn_memory", "gmm_action")
+                  "noise_scale", "rnn_memory", "gmm_action")
 """Fields that change how a trained network acts, never how it is trained (a Diffusion
 Policy's executed steps per chunk, DDIM steps and rollout noise, a recurrent policy's memory
 and the point of its GMM it acts on): an experiment trains once for configs that differ only

@@ -456,7 +456,8 @@ class DiffusionPolicy(PolicyFamily):
         else:
             seed = cfg.seed if cfg.sample_seed is None else cfg.sample_seed
             scene = state.scene_seed if cfg.rollout_noise == "scene" else None
-            x = torch.randn(shape, generator=_noise_generator(seed, state.decisions, scene))
+            x = cfg.noise_scale * torch.randn(
+                shape, generator=_noise_generator(seed, state.decisions, scene))
         self.sampler.set_timesteps(cfg.inference_steps)
         for t in self.sampler.timesteps:
             eps = self.ema["unet"](x, t.expand(len(x)), cond)
