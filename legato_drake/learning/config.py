@@ -366,8 +366,7 @@ resolution was its motion resolution; every noise level weighed alike; images ke
 on its GMM's most likely component; no weight average for the recurrent families; the batch
 order seeded by ``seed``, which a ``batch_seed`` equal to it also does, and so the rollout
 noise, drawn alike in every trial and at full scale; every small-trunk layer at stride
-2). At those values
-``key_fields`` leaves the field out, so those results keep their keys."""
+2). At those values ``key_fields`` leaves the field out, so those results keep their keys."""
 
 
 def key_fields(config: LearningConfig | dict) -> dict:
