@@ -20,6 +20,7 @@ test: $(STAMP)  ## set up, then run the whole test suite (ruff, pytest, the note
 
 bench: $(STAMP)  ## speed benchmarks (tables on stdout)
 	$(BIN)/python benchmarks/bench_closed_loop.py
+	$(BIN)/python benchmarks/bench_system_overhead.py
 	$(BIN)/python benchmarks/bench_ik.py
 	$(BIN)/python benchmarks/bench_invariants.py
 	$(BIN)/python benchmarks/bench_training_step.py

@@ -1,7 +1,7 @@
 """How well a Diffusion Policy checkpoint fits its demonstrations, open loop.
 
     python scripts/chunk_fit.py RUN/step_020000.pt DATA.hdf5 [--split valid] [--windows 300]
-                                [--phases]
+                                [--phases | --phase-edges=-5,0,5,10] [--set FIELD=VALUE]
 
 For ``--windows`` random windows of the demos in ``--split`` (seeded), the policy samples a
 chunk from the window's first ``obs_horizon`` observations, as it would at rollout. Over the
@@ -21,7 +21,10 @@ prints how far the objects' positions that its head reads from the latest observ
 (through the rollout's EMA encoders) are from the true ones, per object body: whether the
 encoder locates what the policy must reach. ``--phases`` breaks the gripper error and the
 objects' down by where the window's latest observation lies relative to the demo's first
-grasp command (``legato_fit.py``'s phases).
+grasp command (``legato_fit.py``'s phases; ``--phase-edges`` sets the bins, in steps from
+it), with how far the demonstrated and the sampled chunks move the gripper in each.
+``--set`` changes how the policy samples, as ``evaluate --set`` does (e.g.
+``rollout_noise=zero``, ``noise_scale=0.5``).
 
 A policy that does not fit its training split is under-trained or under-informed; one that
 fits but fails in closed loop is not.
@@ -40,13 +43,26 @@ import torch
 from legato_fit import grasp_steps, located_in, phases, position_errors_mm, print_located
 
 from legato_drake.data.torch_dataset import SPLITS, DemoSequenceDataset
+from legato_drake.errors import ConfigError
 from legato_drake.learning.checkpoint import load_checkpoint
+from legato_drake.learning.config import apply_rollout_overrides
 from legato_drake.learning.diffusion import (
     DiffusionPolicy,
     DiffusionState,
     deltas_to_reltraj,
     training_chunks,
 )
+
+
+def _edges(text: str) -> list[int]:
+    try:
+        edges = [int(v) for v in text.split(",")]
+    except ValueError:
+        edges = []
+    if len(edges) < 2 or edges != sorted(set(edges)):
+        raise argparse.ArgumentTypeError(f"must be two or more increasing integers, e.g. "
+                                         f"--phase-edges=-5,0,5,10; got {text!r}")
+    return edges
 
 
 def main() -> None:
@@ -59,10 +75,18 @@ def main() -> None:
                         help="chunk steps compared (default: the config's action_horizon)")
     parser.add_argument("--phases", action="store_true",
                         help="the errors by phase, relative to the demo's first grasp command")
+    parser.add_argument("--phase-edges", type=_edges, metavar="E0,E1,...",
+                        help="--phases with these bins (steps from the first grasp command)")
+    parser.add_argument("--set", action="append", metavar="FIELD=VALUE",
+                        help="how the policy samples (repeatable), as evaluate --set")
     args = parser.parse_args()
     torch.set_num_threads(1)
     ckpt = load_checkpoint(args.checkpoint)
-    policy, cfg = ckpt.policy, ckpt.config
+    try:
+        ckpt.policy.config = apply_rollout_overrides(ckpt.config, args.set, "--set")
+    except ConfigError as e:
+        parser.error(str(e))
+    policy, cfg = ckpt.policy, ckpt.policy.config
     if not isinstance(policy, DiffusionPolicy):
         parser.error(f"{args.checkpoint} is a {cfg.algo} checkpoint, not a Diffusion Policy "
                      f"(dp_velocity, dp_reltraj)")
@@ -73,9 +97,9 @@ def main() -> None:
     keys = cfg.dataset_keys  # with object_in_tcp where the policy has an object head
     data = DemoSequenceDataset(args.data, keys, cfg.seq_length, args.split, image_steps=To)
     picks = np.random.default_rng(0).permutation(len(data))[:args.windows]
-    errors, moves, drifts, agree, agree_at_switch = [], [], [], [], []
+    errors, moves, sampled_moves, drifts, agree, agree_at_switch = [], [], [], [], [], []
     misplaced: list[np.ndarray] = []  # per window, each body's position error (mm)
-    closes = grasp_steps(args.data, data.demos) if args.phases else {}
+    closes = grasp_steps(args.data, data.demos) if args.phases or args.phase_edges else {}
     from_grasp: list[int] = []  # per window, its latest observation relative to the grasp
     for n, i in enumerate(picks):
         item = data[int(i)]
@@ -95,6 +119,7 @@ def main() -> None:
         drifts.append(1000 * float(torch.linalg.norm(deltas_to_reltraj(recorded)[-1, :3]
                                                      - end_shown)))
         moves.append(1000 * float(torch.linalg.norm(end_shown)))
+        sampled_moves.append(1000 * float(torch.linalg.norm(end_sampled)))
         same = float((sampled[:, 6] == shown[:, 6]).double().mean())
         agree.append(same)
         grasps = torch.cat([item["actions"][To - 2:To - 1, 6].double(), shown[:, 6]])
@@ -121,11 +146,14 @@ def main() -> None:
         print_located(args.data, data.demos[0], located_mm, "the latest frames")
     if from_grasp:
         where, errors_mm = np.array(from_grasp), np.array(errors)
+        shown_mm, sampled_mm = np.array(moves), np.array(sampled_moves)
         print("  by phase (the latest observation's steps from the demo's first grasp "
               "command):")
-        for label, here in phases(where):
+        for label, here in phases(where, args.phase_edges):
             line = (f"    {label}: {here.sum()} windows, gripper error median "
-                    f"{np.median(errors_mm[here]):.1f} mm")
+                    f"{np.median(errors_mm[here]):.1f} mm (moves: demo "
+                    f"{np.median(shown_mm[here]):.1f}, sampled "
+                    f"{np.median(sampled_mm[here]):.1f} mm)")
             print(line + (located_in(located_mm, here) if located_mm is not None else ""))
 
 

@@ -167,10 +167,15 @@ def grasp_steps(path: Path, demos: list[str]) -> dict[str, int]:
     return closes
 
 
-def phases(where: np.ndarray) -> Iterator[tuple[str, np.ndarray]]:
-    """``PHASES``' labels with the mask of the entries of ``where`` (steps from a demo's
-    first grasp command) each holds; empty phases left out."""
-    for low, high, label in PHASES:
+def phases(where: np.ndarray, edges: list[int] | None = None
+           ) -> Iterator[tuple[str, np.ndarray]]:
+    """``PHASES``' labels (or, with ``edges``, the bins between consecutive edges) with the
+    mask of the entries of ``where`` (steps from a demo's first grasp command) each holds;
+    empty phases left out."""
+    bins = PHASES if edges is None else [
+        (low, high, f"{low} to {high} steps after")
+        for low, high in zip(edges[:-1], edges[1:], strict=True)]
+    for low, high, label in bins:
         here = (where >= low) & (where < high)
         if here.any():
             yield label, here

@@ -1,0 +1,91 @@
+"""What a Python LeafSystem costs the closed loop by being there, before it does any work.
+
+Simulates Panda's lid scene (seed 0) driven by the commands its closed loop sent the plant
+(``bench_closed_loop.recorded_commands``), alone and beside k no-op Python systems, each a
+100 Hz discrete update that writes one number (and, with "reads state", first evaluates the
+plant's state input), and prints the wall time of each (median of --repeats) and the cost per
+system and per call. Usage:
+
+    python benchmarks/bench_system_overhead.py [--embodiment panda] [--repeats 3]
+        [--counts 3,6,12] [--json FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+from pathlib import Path
+
+from bench_closed_loop import _command_ports, _held_at_home, _timed, recorded_commands
+from pydrake.systems.framework import Context, DiagramBuilder, DiscreteValues, LeafSystem
+from pydrake.systems.primitives import TrajectorySource
+
+from legato_drake.conventions import IK_PERIOD, PHYSICS_DT
+from legato_drake.scenario import Scenario
+from legato_drake.summary import format_table
+
+
+class NoOp(LeafSystem):
+    """A 100 Hz discrete update that does nothing but write one number (the state's first
+    entry when ``reads`` is set)."""
+
+    def __init__(self, size: int, reads: bool):
+        super().__init__()
+        self._input = self.DeclareVectorInputPort("plant_state", size)
+        self._state = self.DeclareDiscreteState(1)
+        self._reads = reads
+        self.DeclarePeriodicDiscreteUpdateEvent(IK_PERIOD, 0.0, self._update)
+
+    def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
+        value = self._input.Eval(context)[0] if self._reads else 0.0
+        discrete_state.set_value(self._state, [value])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--embodiment", default="panda")
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--counts", default="3,6,12", help="numbers of no-op systems")
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the rows there")
+    args = parser.parse_args()
+    scenario = Scenario(embodiment=args.embodiment, task="lid", seed=0)
+    holds, _ = recorded_commands(scenario)
+    sim_time = holds["actuation"].end_time() - PHYSICS_DT / 2
+
+    def wall(count: int, reads: bool) -> float:
+        times = []
+        for _ in range(args.repeats):
+            builder = DiagramBuilder()
+            plant, robot, task, _, _ = _held_at_home(scenario, builder)
+            for name, port in _command_ports(plant, robot).items():
+                builder.Connect(builder.AddSystem(TrajectorySource(holds[name]))
+                                .get_output_port(), port)
+            size = plant.num_positions() + plant.num_velocities()
+            for _ in range(count):
+                system = builder.AddSystem(NoOp(size, reads))
+                builder.Connect(plant.get_state_output_port(), system.get_input_port())
+            times.append(sim_time / _timed(builder, plant, task, scenario, sim_time)[0])
+        return statistics.median(times)
+
+    alone = wall(0, False)
+    calls = round(sim_time / IK_PERIOD)
+    rows, records = [[0, "-", alone, "-", "-"]], [dict(systems=0, wall_s=alone)]
+    for count in (int(c) for c in args.counts.split(",")):
+        for reads in (False, True):
+            seconds = wall(count, reads)
+            each = (seconds - alone) / count
+            rows.append([count, "yes" if reads else "no", seconds, each, 1e6 * each / calls])
+            records.append(dict(systems=count, reads_state=reads, wall_s=seconds,
+                                per_system_s=each, per_call_us=1e6 * each / calls))
+    print(f"{args.embodiment} lid, the plant replaying its closed loop for {sim_time:.1f} s "
+          f"({calls} calls of each 100 Hz system)")
+    print(format_table(["no-op systems", "reads state", "wall s", "s per system",
+                        "us per call"], rows))
+    if args.json is not None:
+        args.json.write_text(json.dumps(dict(embodiment=args.embodiment, sim_time=sim_time,
+                                             repeats=args.repeats, rows=records), indent=1))
+
+
+if __name__ == "__main__":
+    main()
