@@ -4,7 +4,10 @@ Simulates Panda's lid scene (seed 0) driven by the commands its closed loop sent
 (``bench_closed_loop.recorded_commands``), alone and beside k no-op Python systems, each a
 100 Hz discrete update that writes one number (and, with "reads state", first evaluates the
 plant's state input), and prints the wall time of each (median of --repeats) and the cost per
-system and per call. Usage:
+system and per call. Then times the episode's own monitor (``EpisodeRun``'s, a Python call after
+every physics step that reads the success and controller-done ports) inside the closed loop
+of the same scene, without cameras: its seconds, calls and share of the episode's wall time.
+Usage:
 
     python benchmarks/bench_system_overhead.py [--embodiment panda] [--repeats 3]
         [--counts 3,6,12] [--json FILE]
@@ -13,8 +16,10 @@ system and per call. Usage:
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import statistics
+import time
 from pathlib import Path
 
 from bench_closed_loop import _command_ports, _held_at_home, _timed, recorded_commands
@@ -22,6 +27,8 @@ from pydrake.systems.framework import Context, DiagramBuilder, DiscreteValues, L
 from pydrake.systems.primitives import TrajectorySource
 
 from legato_drake.conventions import IK_PERIOD, PHYSICS_DT
+from legato_drake.diagram import build_diagram
+from legato_drake.episode import EpisodeRun
 from legato_drake.scenario import Scenario
 from legato_drake.summary import format_table
 
@@ -40,6 +47,26 @@ class NoOp(LeafSystem):
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
         value = self._input.Eval(context)[0] if self._reads else 0.0
         discrete_state.set_value(self._state, [value])
+
+
+def monitor_share(scenario: Scenario) -> dict:
+    """The closed loop of ``scenario`` (cameras off) with its episode monitor timed: wall
+    seconds of the episode and of the monitor's calls, and how many calls."""
+    scenario = scenario.replace(camera=dataclasses.replace(scenario.camera, enabled=False))
+    run = EpisodeRun(build_diagram(scenario, None))
+    monitor, spent = run._monitor, [0.0, 0]
+
+    def timed(root):
+        start = time.perf_counter()
+        status = monitor(root)
+        spent[0] += time.perf_counter() - start
+        spent[1] += 1
+        return status
+
+    run.simulator.set_monitor(timed)
+    start = time.perf_counter()
+    run.advance_to(run.t_end)
+    return dict(wall_s=time.perf_counter() - start, monitor_s=spent[0], calls=spent[1])
 
 
 def main() -> None:
@@ -82,9 +109,14 @@ def main() -> None:
           f"({calls} calls of each 100 Hz system)")
     print(format_table(["no-op systems", "reads state", "wall s", "s per system",
                         "us per call"], rows))
+    monitor = monitor_share(scenario)
+    print(f"the episode's monitor in the closed loop (cameras off): {monitor['monitor_s']:.3f} s "
+          f"of {monitor['wall_s']:.2f} s ({100 * monitor['monitor_s'] / monitor['wall_s']:.1f} %), "
+          f"{monitor['calls']} calls, {1e6 * monitor['monitor_s'] / monitor['calls']:.0f} us each")
     if args.json is not None:
         args.json.write_text(json.dumps(dict(embodiment=args.embodiment, sim_time=sim_time,
-                                             repeats=args.repeats, rows=records), indent=1))
+                                             repeats=args.repeats, rows=records,
+                                             monitor=monitor), indent=1))
 
 
 if __name__ == "__main__":
