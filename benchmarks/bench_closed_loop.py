@@ -138,17 +138,29 @@ def _object_positions(plant, context, robot) -> np.ndarray:
                            for b in object_bodies(plant, robot)])
 
 
+def replay_time(holds: dict) -> float:
+    """Simulated seconds the recorded commands ``holds`` cover."""
+    return holds["actuation"].end_time() - PHYSICS_DT / 2
+
+
+def replaying_plant(scenario: Scenario, holds: dict, builder: DiagramBuilder):
+    """The scenario's plant in ``builder``, its command inputs driven by the recorded
+    commands ``holds`` (``recorded_commands``); returns the plant, its robot and task."""
+    plant, robot, task, _, _ = _held_at_home(scenario, builder)
+    for name, port in _command_ports(plant, robot).items():
+        builder.Connect(builder.AddSystem(TrajectorySource(holds[name])).get_output_port(),
+                        port)
+    return plant, robot, task
+
+
 def plant_replay_rtf(scenario: Scenario, holds: dict, objects: np.ndarray
                      ) -> tuple[float, float]:
     """Real-time factor of the scenario's plant driven by the closed loop's recorded commands
     (``recorded_commands``), and how far (mm, the largest over the objects) its objects end
     from where the closed loop left them (``objects``)."""
     builder = DiagramBuilder()
-    plant, robot, task, _, _ = _held_at_home(scenario, builder)
-    for name, port in _command_ports(plant, robot).items():
-        builder.Connect(builder.AddSystem(TrajectorySource(holds[name])).get_output_port(),
-                        port)
-    sim_time = holds["actuation"].end_time() - PHYSICS_DT / 2
+    plant, robot, task = replaying_plant(scenario, holds, builder)
+    sim_time = replay_time(holds)
     rtf, simulator = _timed(builder, plant, task, scenario, sim_time)
     final = _object_positions(plant, plant.GetMyContextFromRoot(simulator.get_context()),
                               robot)

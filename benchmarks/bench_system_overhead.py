@@ -22,11 +22,10 @@ import statistics
 import time
 from pathlib import Path
 
-from bench_closed_loop import _command_ports, _held_at_home, _timed, recorded_commands
+from bench_closed_loop import _timed, recorded_commands, replay_time, replaying_plant
 from pydrake.systems.framework import Context, DiagramBuilder, DiscreteValues, LeafSystem
-from pydrake.systems.primitives import TrajectorySource
 
-from legato_drake.conventions import IK_PERIOD, PHYSICS_DT
+from legato_drake.conventions import IK_PERIOD
 from legato_drake.diagram import build_diagram
 from legato_drake.episode import EpisodeRun
 from legato_drake.scenario import Scenario
@@ -54,7 +53,7 @@ def monitor_share(scenario: Scenario) -> dict:
     seconds of the episode and of the monitor's calls, and how many calls."""
     scenario = scenario.replace(camera=dataclasses.replace(scenario.camera, enabled=False))
     run = EpisodeRun(build_diagram(scenario, None))
-    monitor, spent = run._monitor, [0.0, 0]
+    monitor, spent = run.simulator.get_monitor(), [0.0, 0]
 
     def timed(root):
         start = time.perf_counter()
@@ -78,16 +77,13 @@ def main() -> None:
     args = parser.parse_args()
     scenario = Scenario(embodiment=args.embodiment, task="lid", seed=0)
     holds, _ = recorded_commands(scenario)
-    sim_time = holds["actuation"].end_time() - PHYSICS_DT / 2
+    sim_time = replay_time(holds)
 
     def wall(count: int, reads: bool) -> float:
         times = []
         for _ in range(args.repeats):
             builder = DiagramBuilder()
-            plant, robot, task, _, _ = _held_at_home(scenario, builder)
-            for name, port in _command_ports(plant, robot).items():
-                builder.Connect(builder.AddSystem(TrajectorySource(holds[name]))
-                                .get_output_port(), port)
+            plant, _, task = replaying_plant(scenario, holds, builder)
             size = plant.num_positions() + plant.num_velocities()
             for _ in range(count):
                 system = builder.AddSystem(NoOp(size, reads))
